@@ -1,0 +1,36 @@
+"""bayesfilt: the small Bayesian-filtering library of the course.
+
+Import it as ``bf`` and reach each concept through its module::
+
+    import bayesfilt as bf
+    bf.bayes      # discrete (grid) Bayes filter           -- chapter 01
+    bf.gaussian   # conditioning a jointly Gaussian vector -- chapter 02
+    bf.kalman     # Kalman filter                          -- chapters 02-03
+    bf.ekf        # extended Kalman filter                 -- chapter 04
+    bf.models     # state-space models and simulation      -- chapters 02-06
+    bf.plotting   # plots used by the notebooks
+
+Modules load on first use, so ``import bayesfilt`` stays cheap and does not
+pull in matplotlib until a plot is drawn.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.1.0"
+
+_MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "plotting")
+__all__ = list(_MODULES)
+
+
+def __getattr__(name: str):
+    if name in _MODULES:
+        module = importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'bayesfilt' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_MODULES))

@@ -1,0 +1,159 @@
+"""Argument checks shared by every public function of :mod:`bayesfilt`.
+
+Each helper converts its input to a float array, checks one property and
+raises a ``ValueError`` (or ``TypeError`` for the wrong kind of object) whose
+message names the argument, the expected shape or property, and what it got.
+The filters call these helpers on entry so that a wrong shape fails loudly
+instead of broadcasting into a silently wrong answer.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "as_array",
+    "as_vector",
+    "as_matrix",
+    "as_square",
+    "as_covariance",
+    "as_int",
+    "as_positive_float",
+    "as_rng",
+    "check_callable",
+]
+
+
+def _describe(a) -> str:
+    a = np.asarray(a)
+    return f"shape {a.shape}" if a.ndim else f"scalar {a!r}"
+
+
+def as_array(name: str, value, *, ndim: int | None = None, finite: bool = True) -> np.ndarray:
+    """Return ``value`` as a float array, checking its number of dimensions."""
+    if value is None:
+        raise TypeError(f"{name} must be an array of numbers, got None")
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of numbers, got {type(value).__name__}") from exc
+    if ndim is not None and a.ndim != ndim:
+        raise ValueError(f"{name} must be {ndim}-dimensional, got {_describe(a)}")
+    if finite and not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got NaN or inf at index "
+                         f"{tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])}")
+    return a
+
+
+def as_vector(name: str, value, size: int | None = None, *, finite: bool = True) -> np.ndarray:
+    """Return ``value`` as a 1-D float array of length ``size`` (any length if None).
+
+    A scalar is accepted when ``size`` is 1, so that a 1-D problem can be
+    written without brackets.
+    """
+    a = as_array(name, value, finite=finite)
+    if a.ndim == 0 and size in (None, 1):
+        a = a.reshape(1)
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be a vector of shape ({size if size is not None else 'n'},), "
+                         f"got {_describe(a)}")
+    if size is not None and a.shape[0] != size:
+        raise ValueError(f"{name} must have shape ({size},), got shape {a.shape}")
+    return a
+
+
+def as_matrix(name: str, value, shape: tuple[int | None, int | None] | None = None,
+              *, finite: bool = True) -> np.ndarray:
+    """Return ``value`` as a 2-D float array; ``None`` in ``shape`` means any size.
+
+    A scalar is accepted for a (1, 1) matrix.
+    """
+    a = as_array(name, value, finite=finite)
+    if a.ndim == 0 and shape is not None and all(s in (None, 1) for s in shape):
+        a = a.reshape(1, 1)
+    if a.ndim != 2:
+        want = "(" + ", ".join("?" if s is None else str(s) for s in shape) + ")" if shape else "2-D"
+        raise ValueError(f"{name} must be a matrix of shape {want}, got {_describe(a)}")
+    if shape is not None:
+        for axis, want in enumerate(shape):
+            if want is not None and a.shape[axis] != want:
+                pretty = "(" + ", ".join("?" if s is None else str(s) for s in shape) + ")"
+                raise ValueError(f"{name} must have shape {pretty}, got shape {a.shape}")
+    return a
+
+
+def as_square(name: str, value, size: int | None = None, *, finite: bool = True) -> np.ndarray:
+    """Return ``value`` as a square matrix (of side ``size`` if given)."""
+    a = as_matrix(name, value, (size, size), finite=finite)
+    if a.shape[0] != a.shape[1]:
+        raise ValueError(f"{name} must be square, got shape {a.shape}")
+    return a
+
+
+def as_covariance(name: str, value, size: int | None = None, *, definite: bool = False,
+                  rtol: float = 1e-9) -> np.ndarray:
+    """Return ``value`` as a symmetric positive semi-definite matrix.
+
+    Parameters
+    ----------
+    name : str
+        Argument name used in error messages.
+    value : array_like, shape (n, n)
+        Candidate covariance. A scalar is accepted when ``size`` is 1.
+    size : int, optional
+        Required side length.
+    definite : bool
+        Require strict positive definiteness (invertibility).
+    rtol : float
+        Tolerance, relative to the largest absolute entry, for symmetry and
+        for the smallest eigenvalue.
+    """
+    a = as_square(name, value, size)
+    scale = max(float(np.max(np.abs(a))), 1e-300) if a.size else 1.0
+    asym = float(np.max(np.abs(a - a.T))) if a.size else 0.0
+    if asym > rtol * scale:
+        raise ValueError(f"{name} must be symmetric, got max |{name} - {name}^T| = {asym:.3g}")
+    eig_min = float(np.linalg.eigvalsh(0.5 * (a + a.T)).min()) if a.size else 0.0
+    if eig_min < -rtol * scale * max(a.shape[0], 1):
+        raise ValueError(f"{name} must be positive semi-definite, got smallest eigenvalue {eig_min:.3g}")
+    if definite and eig_min <= rtol * scale:
+        raise ValueError(f"{name} must be positive definite (invertible), "
+                         f"got smallest eigenvalue {eig_min:.3g}")
+    return a
+
+
+def as_int(name: str, value, *, minimum: int | None = None) -> int:
+    """Return ``value`` as a Python int, rejecting floats and bools."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
+    value = int(value)
+    if minimum is not None and value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    return value
+
+
+def as_positive_float(name: str, value, *, allow_zero: bool = False) -> float:
+    """Return ``value`` as a finite float > 0 (>= 0 with ``allow_zero``)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+    value = float(value)
+    if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
+    return value
+
+
+def as_rng(name: str, rng) -> np.random.Generator:
+    """Require a ``numpy.random.Generator`` (seeded by the caller)."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"{name} must be a numpy.random.Generator, e.g. np.random.default_rng(0); "
+                        f"got {type(rng).__name__}")
+    return rng
+
+
+def check_callable(name: str, fun) -> None:
+    """Require ``fun`` to be callable."""
+    if not callable(fun):
+        raise TypeError(f"{name} must be callable, got {type(fun).__name__}")

@@ -1,0 +1,599 @@
+r"""State-space models: what the filters filter.
+
+A state-space model (상태공간 모델) is two conditional distributions and a
+prior. In the course notation of seed 000,
+
+.. math::
+
+    x_{t+1} = f(x_t) + G w_t + B u_t, \qquad w_t \sim \mathcal N(0, Q),
+
+    y_t = h(x_t) + v_t, \qquad v_t \sim \mathcal N(0, R),
+
+    x_0 \sim \mathcal N(m_0, P_0),
+
+with the linear case :math:`f(x) = A x`, :math:`h(x) = C x`. The time
+convention is seed 000's: the first measurement ``ys[0]`` already measures
+:math:`x_0`.
+
+Import it as ``bf.models``::
+
+    import bayesfilt as bf
+    model = bf.models.damped_particle()
+    xs, ys = bf.models.simulate(model, 100, np.random.default_rng(0))
+
+Every model offers the same small interface, so that any filter can use any
+model: a Kalman filter reads the matrices, an EKF calls ``f``/``F``/``h``/``H``,
+and a particle filter (chapters 05-06) only needs
+
+* ``model.sample_initial(rng, size)``: draws of :math:`x_0`, shape (size, n);
+* ``model.sample_transition(rng, xs, u=None)``: one draw of :math:`x_{t+1}`
+  for each row of ``xs`` (N, n), all particles at once;
+* ``model.measurement_logpdf(y, xs)``: :math:`\log p(y \mid x)` for each row,
+  shape (N,);
+* ``model.transition_logpdf(x_next, xs)``: :math:`\log p(x_{t+1} \mid x_t)`
+  where the transition has a density (needed by a proposal other than the
+  prior).
+
+Letters at the API follow seed 000; the other seeds and filterpy use other
+letters for the same objects:
+
+=====================  ==========  =====================  ===========  ==========
+object                 course/000  Kay (000, section 3)   001 / 002    filterpy
+=====================  ==========  =====================  ===========  ==========
+state                  x           s[n]                   x_k / x_t    x
+measurement            y           x[n]                   z_k / z_t    z
+transition matrix      A           A[n-1] (Jacobian)      f_k          F
+measurement matrix     C           H[n]                   h_k          H
+process noise gain     G           B                      (in f_k)     (in Q)
+process noise cov      Q           Q                      (v_k)        Q
+measurement noise cov  R           C[n]                   (n_k)        R
+control matrix         B           --                     u_t (002)    B
+=====================  ==========  =====================  ===========  ==========
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from ._checks import (as_covariance, as_int, as_matrix, as_rng, as_vector,
+                      check_callable)
+
+__all__ = [
+    "LinearGaussian",
+    "NonlinearGaussian",
+    "Simulation",
+    "simulate",
+    "damped_particle",
+    "range_bearing",
+    "RANGE_BEARING_TRUE_START",
+    "range_bearing_residual",
+    "wrap_angle",
+    "to_nonlinear",
+]
+
+LOG_2PI = np.log(2.0 * np.pi)
+
+
+# --------------------------------------------------------------------------
+# Gaussian helpers shared by both model classes
+# --------------------------------------------------------------------------
+
+def _noise_factor(cov: np.ndarray) -> np.ndarray:
+    """A matrix L with L L^T = cov, also for a singular (PSD) cov."""
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        vals, vecs = np.linalg.eigh(cov)
+        return vecs * np.sqrt(np.clip(vals, 0.0, None))
+
+
+def _gaussian_logpdf(residuals: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
+    """log N(r; 0, cov) for each row r of ``residuals`` (N, m)."""
+    try:
+        chol = np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name} must be positive definite to evaluate a log-density") from None
+    # Solve L z = r^T instead of inverting cov: cheaper and better conditioned.
+    z = np.linalg.solve(chol, residuals.T)
+    maha = np.sum(z * z, axis=0)
+    log_det = 2.0 * np.sum(np.log(np.diag(chol)))
+    return -0.5 * (maha + log_det + cov.shape[0] * LOG_2PI)
+
+
+def _as_states(name: str, xs, n: int) -> tuple[np.ndarray, bool]:
+    """Accept one state (n,) or a batch (N, n); return (batch, was_single)."""
+    a = np.asarray(xs, dtype=float)
+    if a.ndim == 1 and a.shape[0] == n:
+        return a[None, :], True
+    if a.ndim == 2 and a.shape[1] == n:
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} must be finite, got NaN or inf")
+        return a, False
+    raise ValueError(f"{name} must have shape ({n},) or (N, {n}), got shape {a.shape}")
+
+
+def _freeze(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+class _ModelBase:
+    """Sampling and densities common to the linear and nonlinear models."""
+
+    # Filled by the subclasses' __post_init__.
+    Q: np.ndarray
+    R: np.ndarray
+    G: np.ndarray
+    m0: np.ndarray
+    P0: np.ndarray
+
+    @property
+    def state_dim(self) -> int:
+        """Dimension n of the state x."""
+        return self.m0.shape[0]
+
+    @property
+    def obs_dim(self) -> int:
+        """Dimension m of the measurement y."""
+        return self.R.shape[0]
+
+    @property
+    def noise_dim(self) -> int:
+        """Dimension q of the process noise w (columns of G)."""
+        return self.Q.shape[0]
+
+    # --- the three pieces a particle filter needs -------------------------
+
+    def sample_initial(self, rng: np.random.Generator, size: int) -> np.ndarray:
+        """Draw ``size`` initial states :math:`x_0 \\sim N(m_0, P_0)`, shape (size, n)."""
+        rng = as_rng("rng", rng)
+        size = as_int("size", size, minimum=1)
+        z = rng.standard_normal((size, self.state_dim))
+        return self.m0 + z @ _noise_factor(self.P0).T
+
+    def sample_transition(self, rng: np.random.Generator, xs, u=None) -> np.ndarray:
+        """Draw :math:`x_{t+1} \\sim p(x_{t+1} \\mid x_t = x_s, u_t)` for every row.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+        xs : array_like, shape (N, n) or (n,)
+            Current states (particles).
+        u : array_like, shape (p,), optional
+            Known control input (linear models with ``B`` only).
+
+        Returns
+        -------
+        ndarray, shape (N, n) or (n,)
+            One draw per row, with the noise entering through G, so a noise of
+            lower dimension than the state (seed 000's damped particle) is fine.
+        """
+        rng = as_rng("rng", rng)
+        batch, single = _as_states("xs", xs, self.state_dim)
+        mean = self.transition_mean(batch, u)
+        w = rng.standard_normal((batch.shape[0], self.noise_dim)) @ _noise_factor(self.Q).T
+        out = mean + w @ self.G.T
+        return out[0] if single else out
+
+    def sample_measurement(self, rng: np.random.Generator, xs) -> np.ndarray:
+        """Draw :math:`y \\sim p(y \\mid x)` for every row of ``xs``; shape (N, m) or (m,)."""
+        rng = as_rng("rng", rng)
+        batch, single = _as_states("xs", xs, self.state_dim)
+        v = rng.standard_normal((batch.shape[0], self.obs_dim)) @ _noise_factor(self.R).T
+        out = self.measurement_mean(batch) + v
+        return out[0] if single else out
+
+    def measurement_logpdf(self, y, xs) -> np.ndarray:
+        """:math:`\\log p(y \\mid x)` for one measurement and every row of ``xs``.
+
+        Parameters
+        ----------
+        y : array_like, shape (m,)
+        xs : array_like, shape (N, n) or (n,)
+
+        Returns
+        -------
+        ndarray, shape (N,), or float for a single state.
+            Uses ``self.residual`` so that an angle is compared modulo 2 pi.
+        """
+        y = as_vector("y", y, self.obs_dim)
+        batch, single = _as_states("xs", xs, self.state_dim)
+        residuals = self.residual(y[None, :], self.measurement_mean(batch))
+        out = _gaussian_logpdf(residuals, self.R, "R")
+        return float(out[0]) if single else out
+
+    def transition_logpdf(self, x_next, xs, u=None) -> np.ndarray:
+        """:math:`\\log p(x_{t+1} \\mid x_t)` for every row pair; shape (N,).
+
+        ``x_next`` is (n,) (one target for every row of ``xs``) or (N, n).
+        Raises ``ValueError`` when :math:`G Q G^T` is singular: the transition
+        then has no density on the whole state space (the damped particle's
+        positions move deterministically given the velocities).
+        """
+        batch, single = _as_states("xs", xs, self.state_dim)
+        nxt, _ = _as_states("x_next", x_next, self.state_dim)
+        if nxt.shape[0] not in (1, batch.shape[0]):
+            raise ValueError(f"x_next must have 1 or {batch.shape[0]} rows, got {nxt.shape[0]}")
+        cov = self.G @ self.Q @ self.G.T
+        out = _gaussian_logpdf(nxt - self.transition_mean(batch, u), cov, "G Q G^T")
+        return float(out[0]) if single else out
+
+    def residual(self, y, y_pred) -> np.ndarray:
+        """Innovation ``y - y_pred`` (overridden for angles)."""
+        return np.asarray(y, dtype=float) - np.asarray(y_pred, dtype=float)
+
+    def _check_noise_and_prior(self, n: int) -> None:
+        m0 = as_vector("m0", self.m0, n)
+        P0 = as_covariance("P0", self.P0, n)
+        Q = as_covariance("Q", self.Q)
+        if self.G is None:
+            if Q.shape[0] != n:
+                raise ValueError(f"Q must have shape ({n}, {n}) when G is omitted (G = I), "
+                                 f"got shape {Q.shape}")
+            G = np.eye(n)
+        else:
+            G = as_matrix("G", self.G, (n, Q.shape[0]))
+        R = as_covariance("R", self.R)
+        for name, value in (("m0", m0), ("P0", P0), ("Q", Q), ("G", G), ("R", R)):
+            object.__setattr__(self, name, _freeze(value))
+
+
+# --------------------------------------------------------------------------
+# Linear-Gaussian model (seed 000, section 2)
+# --------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class LinearGaussian(_ModelBase):
+    r"""Linear-Gaussian state-space model (seed 000, section 2).
+
+    .. math::
+
+        x_{t+1} = A x_t + B u_t + G w_t,\quad w_t \sim N(0, Q);\qquad
+        y_t = C x_t + v_t,\quad v_t \sim N(0, R);\qquad x_0 \sim N(m_0, P_0).
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Transition matrix (filterpy ``F``).
+    C : array_like, shape (m, n)
+        Measurement matrix (filterpy ``H``).
+    Q : array_like, shape (q, q)
+        Process-noise covariance, symmetric PSD.
+    R : array_like, shape (m, m)
+        Measurement-noise covariance, symmetric PSD.
+    m0 : array_like, shape (n,)
+        Prior mean of :math:`x_0` (seed 000's :math:`\mu_0`).
+    P0 : array_like, shape (n, n)
+        Prior covariance of :math:`x_0` (seed 000's :math:`\Sigma_0`).
+    G : array_like, shape (n, q), optional
+        Noise gain; identity (q = n) if omitted. filterpy has no G: give it
+        ``Q = G Q G^T``.
+    B : array_like, shape (n, p), optional
+        Control-input matrix for a known input u (seed 002, filterpy ``B``).
+
+    Every matrix is checked on construction (shape, finiteness, symmetry and
+    positive semi-definiteness of Q, R, P0); the stored arrays are read-only.
+    """
+
+    A: np.ndarray
+    C: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    m0: np.ndarray
+    P0: np.ndarray
+    G: np.ndarray | None = None
+    B: np.ndarray | None = None
+
+    def __post_init__(self):
+        A = as_matrix("A", self.A)
+        if A.shape[0] != A.shape[1]:
+            raise ValueError(f"A must be square (n, n), got shape {A.shape}")
+        n = A.shape[0]
+        C = as_matrix("C", self.C, (None, n))
+        object.__setattr__(self, "A", _freeze(A))
+        object.__setattr__(self, "C", _freeze(C))
+        self._check_noise_and_prior(n)
+        if self.R.shape[0] != C.shape[0]:
+            raise ValueError(f"R must have shape ({C.shape[0]}, {C.shape[0]}) to match C's "
+                             f"{C.shape[0]} rows, got shape {self.R.shape}")
+        if self.B is not None:
+            object.__setattr__(self, "B", _freeze(as_matrix("B", self.B, (n, None))))
+
+    @property
+    def control_dim(self) -> int:
+        """Dimension p of the control input (0 without B)."""
+        return 0 if self.B is None else self.B.shape[1]
+
+    def transition_mean(self, xs, u=None) -> np.ndarray:
+        r"""Noise-free transition :math:`A x + B u` of each row of ``xs`` (N, n)."""
+        batch, single = _as_states("xs", xs, self.state_dim)
+        out = batch @ self.A.T
+        if u is not None:
+            if self.B is None:
+                raise ValueError("u was given but the model has no control matrix B")
+            out = out + as_vector("u", u, self.control_dim) @ self.B.T
+        return out[0] if single else out
+
+    def measurement_mean(self, xs) -> np.ndarray:
+        r"""Noise-free measurement :math:`C x` of each row of ``xs`` (N, n)."""
+        batch, single = _as_states("xs", xs, self.state_dim)
+        out = batch @ self.C.T
+        return out[0] if single else out
+
+
+# --------------------------------------------------------------------------
+# Nonlinear-Gaussian model (seed 000, section 3, Kay's notation)
+# --------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class NonlinearGaussian(_ModelBase):
+    r"""Nonlinear model with additive Gaussian noise (seed 000, section 3.1).
+
+    .. math::
+
+        x_{t+1} = f(x_t) + G w_t,\quad w_t \sim N(0, Q);\qquad
+        y_t = h(x_t) + v_t,\quad v_t \sim N(0, R);\qquad x_0 \sim N(m_0, P_0).
+
+    In Kay's notation of seed 000 this is :math:`s[n] = a(s[n-1]) + B u[n]`,
+    :math:`x[n] = h(s[n]) + w[n]`: Kay's ``a`` is ``f``, his ``B`` is ``G``,
+    his ``C[n]`` is ``R`` and his *measurement* is called x.
+
+    Parameters
+    ----------
+    f, h : callable
+        Transition and measurement functions. Each must map one state (n,)
+        to (n,) resp. (m,), **and** a batch (N, n) to (N, n) resp. (N, m)
+        row by row, so that a particle filter can move all particles at once.
+    F, H : callable
+        Their Jacobians, (n,) -> (n, n) and (n,) -> (m, n).
+    Q, R, m0, P0, G
+        As in :class:`LinearGaussian`.
+    residual : callable, optional
+        ``residual(y, y_pred)`` -> innovation, acting on the last axis;
+        defaults to subtraction. An angle measurement needs wrapping
+        (see :func:`range_bearing_residual`).
+
+    The functions are called once on construction, at ``m0`` and at a batch
+    of two copies of it, to check the shapes they return.
+    """
+
+    f: Callable
+    F: Callable
+    h: Callable
+    H: Callable
+    Q: np.ndarray
+    R: np.ndarray
+    m0: np.ndarray
+    P0: np.ndarray
+    G: np.ndarray | None = None
+    residual_fn: Callable | None = field(default=None)
+
+    def __post_init__(self):
+        for name in ("f", "F", "h", "H"):
+            check_callable(name, getattr(self, name))
+        if self.residual_fn is not None:
+            check_callable("residual_fn", self.residual_fn)
+        m0 = as_vector("m0", self.m0)
+        n = m0.shape[0]
+        self._check_noise_and_prior(n)
+        m = self.R.shape[0]
+        pair = np.stack([self.m0, self.m0])
+        for name, fun, single, batch in (("f", self.f, (n,), (2, n)),
+                                         ("h", self.h, (m,), (2, m))):
+            for arg, want in ((self.m0, single), (pair, batch)):
+                got = np.shape(fun(arg.copy()))
+                if got != want:
+                    raise ValueError(f"{name} must map shape {arg.shape} to {want}, got {got}"
+                                     + (" (it must act row-wise on a batch of states)"
+                                        if arg.ndim == 2 else ""))
+        for name, fun, want in (("F", self.F, (n, n)), ("H", self.H, (m, n))):
+            got = np.shape(fun(self.m0.copy()))
+            if got != want:
+                raise ValueError(f"Jacobian {name} must return shape {want} at m0, got {got}")
+
+    def transition_mean(self, xs, u=None) -> np.ndarray:
+        """:math:`f(x)` of each row of ``xs``."""
+        if u is not None:
+            raise ValueError("NonlinearGaussian takes no control input u")
+        batch, single = _as_states("xs", xs, self.state_dim)
+        out = np.asarray(self.f(batch), dtype=float)
+        return out[0] if single else out
+
+    def measurement_mean(self, xs) -> np.ndarray:
+        """:math:`h(x)` of each row of ``xs``."""
+        batch, single = _as_states("xs", xs, self.state_dim)
+        out = np.asarray(self.h(batch), dtype=float)
+        return out[0] if single else out
+
+    def residual(self, y, y_pred) -> np.ndarray:
+        """Innovation: ``residual_fn(y, y_pred)`` if given, else ``y - y_pred``."""
+        if self.residual_fn is None:
+            return super().residual(y, y_pred)
+        return np.asarray(self.residual_fn(np.asarray(y, float), np.asarray(y_pred, float)))
+
+
+def to_nonlinear(model: LinearGaussian) -> NonlinearGaussian:
+    """The same linear model written as a :class:`NonlinearGaussian` (f = A x, h = C x).
+
+    Useful to check that an EKF reduces to the Kalman filter on a linear model.
+    A control matrix B is not carried over.
+    """
+    if not isinstance(model, LinearGaussian):
+        raise TypeError(f"model must be a LinearGaussian, got {type(model).__name__}")
+    A, C = model.A, model.C
+    return NonlinearGaussian(f=lambda x: x @ A.T, F=lambda x: A.copy(),
+                             h=lambda x: x @ C.T, H=lambda x: C.copy(),
+                             Q=model.Q, R=model.R, m0=model.m0, P0=model.P0, G=model.G)
+
+
+# --------------------------------------------------------------------------
+# Simulation
+# --------------------------------------------------------------------------
+
+class Simulation(NamedTuple):
+    """A simulated run: ``xs`` (T, n) true states, ``ys`` (T, m) measurements."""
+
+    xs: np.ndarray
+    ys: np.ndarray
+
+
+def simulate(model, T: int, rng: np.random.Generator, us=None, x0=None) -> Simulation:
+    r"""Simulate states and measurements for ``T`` time steps.
+
+    Seed 000's time convention: :math:`x_0 \sim N(m_0, P_0)` (or the given
+    ``x0``), ``ys[0]`` measures :math:`x_0`, and row ``t`` of ``us`` drives
+    the step from :math:`x_t` to :math:`x_{t+1}`.
+
+    Parameters
+    ----------
+    model : LinearGaussian or NonlinearGaussian
+    T : int
+        Number of time steps (>= 1).
+    rng : numpy.random.Generator
+    us : array_like, shape (T - 1, p) or (T, p), optional
+        Known inputs (needs ``model.B``); with T rows the last is unused.
+    x0 : array_like, shape (n,), optional
+        A fixed true initial state instead of a draw from the prior (e.g.
+        the nominal start of Kay's vehicle, :data:`RANGE_BEARING_TRUE_START`).
+
+    Returns
+    -------
+    Simulation
+        ``xs`` (T, n) and ``ys`` (T, m).
+    """
+    if not isinstance(model, _ModelBase):
+        raise TypeError(f"model must be a LinearGaussian or NonlinearGaussian, "
+                        f"got {type(model).__name__}")
+    T = as_int("T", T, minimum=1)
+    rng = as_rng("rng", rng)
+    n = model.state_dim
+    if us is not None:
+        if getattr(model, "B", None) is None:
+            raise ValueError("us was given but the model has no control matrix B")
+        us = as_matrix("us", us, (None, model.control_dim))
+        if us.shape[0] not in (T - 1, T):
+            raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {us.shape[0]}")
+    xs = np.empty((T, n))
+    xs[0] = model.sample_initial(rng, 1)[0] if x0 is None else as_vector("x0", x0, n)
+    for t in range(T - 1):
+        xs[t + 1] = model.sample_transition(rng, xs[t], None if us is None else us[t])
+    ys = model.sample_measurement(rng, xs)
+    return Simulation(xs, ys)
+
+
+# --------------------------------------------------------------------------
+# The seeds' examples
+# --------------------------------------------------------------------------
+
+def damped_particle(force_var: float = 0.01, meas_var: float = 1.0, damping: float = 0.98,
+                    P0=None, B=None) -> LinearGaussian:
+    r"""Seed 000's particle moving in the plane under random forces and damping.
+
+    State :math:`x = [x^1, \dot x^1, x^2, \dot x^2]^T` (positions and
+    velocities, unit time step); only the positions are measured:
+
+    .. math::
+
+        A = \begin{bmatrix}1&1&0&0\\0&0.98&0&0\\0&0&1&1\\0&0&0&0.98\end{bmatrix},\quad
+        G = \begin{bmatrix}0&0\\1&0\\0&0\\0&1\end{bmatrix},\quad
+        C = \begin{bmatrix}1&0&0&0\\0&0&1&0\end{bmatrix}.
+
+    The seed leaves Q, R and the prior open; the course chooses
+    ``Q = force_var * I2`` (a random force of standard deviation 0.1 per step),
+    ``R = meas_var * I2`` (position noise of standard deviation 1),
+    ``m0 = 0`` (the seed's :math:`\mu_0 = 0`) and ``P0 = I4``.
+
+    Parameters
+    ----------
+    force_var, meas_var : float
+        Variances of each force component and each position measurement.
+    damping : float
+        Velocity retained per step (0.98 in the seed).
+    P0 : array_like, shape (4, 4), optional
+        Prior covariance (default identity).
+    B : array_like, shape (4, p), optional
+        Control matrix for a known push, e.g. ``G`` to push on the velocities.
+    """
+    A = np.array([[1.0, 1.0, 0.0, 0.0],
+                  [0.0, damping, 0.0, 0.0],
+                  [0.0, 0.0, 1.0, 1.0],
+                  [0.0, 0.0, 0.0, damping]])
+    G = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 0.0], [0.0, 1.0]])
+    C = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
+    return LinearGaussian(A=A, C=C, Q=force_var * np.eye(2), R=meas_var * np.eye(2),
+                          m0=np.zeros(4), P0=np.eye(4) if P0 is None else P0, G=G, B=B)
+
+
+def wrap_angle(angle):
+    r"""Wrap angles into :math:`(-\pi, \pi]` (element-wise)."""
+    angle = np.asarray(angle, dtype=float)
+    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+
+
+def range_bearing_residual(y, y_pred) -> np.ndarray:
+    """Range-bearing innovation: plain difference for the range, wrapped for the bearing."""
+    r = np.asarray(y, dtype=float) - np.asarray(y_pred, dtype=float)
+    r = np.array(r, dtype=float)  # writable copy
+    r[..., 1] = wrap_angle(r[..., 1])
+    return r
+
+
+#: Kay's nominal start: r_x = 10 - 0.2 n, r_y = -5 + 0.2 n.
+RANGE_BEARING_TRUE_START = np.array([10.0, -5.0, -0.2, 0.2])
+RANGE_BEARING_TRUE_START.setflags(write=False)
+
+
+def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_var: float = 0.01,
+                  m0=(5.0, 5.0, 0.0, 0.0), prior_var: float = 100.0) -> NonlinearGaussian:
+    r"""Kay's vehicle tracked by range and bearing (Example 13.4, seed 000 section 3.1).
+
+    State :math:`[r_x, r_y, v_x, v_y]`, constant velocity with unit time step
+    and process noise on the velocities only; the sensor at the origin
+    measures
+
+    .. math::
+
+        R = \sqrt{r_x^2 + r_y^2},\qquad \beta = \operatorname{atan2}(r_y, r_x).
+
+    Erratum (seed 000): the seed writes :math:`\beta = \arctan(r_y / r_x)`,
+    which loses the quadrant once :math:`r_x < 0`; ``atan2`` does not, and the
+    bearing innovation is wrapped into :math:`(-\pi, \pi]`.
+
+    The filter prior is Kay's: ``m0 = [5, 5, 0, 0]``, ``P0 = 100 I``. The true
+    vehicle starts at :data:`RANGE_BEARING_TRUE_START` (pass it as ``x0`` to
+    :func:`simulate`).
+    """
+    A = np.array([[1.0, 0.0, 1.0, 0.0],
+                  [0.0, 1.0, 0.0, 1.0],
+                  [0.0, 0.0, 1.0, 0.0],
+                  [0.0, 0.0, 0.0, 1.0]])
+    G = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+
+    def f(x):
+        return x @ A.T
+
+    def F(x):
+        return A.copy()
+
+    def h(x):
+        x = np.asarray(x, dtype=float)
+        rx, ry = x[..., 0], x[..., 1]
+        return np.stack([np.hypot(rx, ry), np.arctan2(ry, rx)], axis=-1)
+
+    def H(x):
+        rx, ry = float(x[0]), float(x[1])
+        r2 = rx * rx + ry * ry
+        if r2 == 0.0:
+            raise ValueError("range-bearing Jacobian H is undefined at the sensor (r_x = r_y = 0)")
+        r = np.sqrt(r2)
+        return np.array([[rx / r, ry / r, 0.0, 0.0],
+                         [-ry / r2, rx / r2, 0.0, 0.0]])
+
+    return NonlinearGaussian(f=f, F=F, h=h, H=H, Q=velocity_var * np.eye(2),
+                             R=np.diag([range_var, bearing_var]),
+                             m0=np.asarray(m0, dtype=float), P0=prior_var * np.eye(4), G=G,
+                             residual_fn=range_bearing_residual)
