@@ -1,0 +1,418 @@
+r"""The discrete Bayes filter: the Bayes recursion on a finite state space.
+
+Chapter 01 of the course. When the state takes one of ``n`` values (cells of
+a grid, doors that are open or closed), a belief is a probability vector and
+both steps of the Bayes recursion are finite sums.
+
+**Prediction** (예측, *time update*): total probability over the previous
+state and the Markov assumption (seed 000 section 1, seed 001 "Prediction",
+seed 002 eq. 12-13) give the Chapman-Kolmogorov equation
+
+.. math::
+
+    p(x_t = j \mid y_{0:t-1}) = \sum_i p(x_t = j \mid x_{t-1} = i)\,
+                                       p(x_{t-1} = i \mid y_{0:t-1}),
+
+a vector-matrix product ``prior = belief @ transition`` with
+``transition[i, j] = p(x_t = j | x_{t-1} = i)`` (rows sum to one). A known
+control input :math:`u_{t-1}` (seed 002) selects the transition matrix.
+
+**Measurement update** (측정 업데이트): Bayes' rule (seed 001 eqs. 3-4,
+seed 002 eqs. 9-11)
+
+.. math::
+
+    p(x_t \mid y_{0:t}) = \frac{p(y_t \mid x_t)\, p(x_t \mid y_{0:t-1})}
+                               {p(y_t \mid y_{0:t-1})},\qquad
+    p(y_t \mid y_{0:t-1}) = \sum_j p(y_t \mid x_t = j)\, p(x_t = j \mid y_{0:t-1}).
+
+The denominator, the *evidence*, is the normalising constant (정규화 항); its
+product over time is the likelihood of the whole measurement record.
+
+Import it as ``bf.bayes``::
+
+    import bayesfilt as bf
+    move = bf.bayes.shift_transition(10, bf.bayes.gaussian_kernel(0.5), offset=1)
+    prior = bf.bayes.predict(belief, move)
+    posterior, evidence = bf.bayes.update(prior, likelihood)
+
+filterpy equivalents: ``filterpy.discrete_bayes.predict(pdf, offset, kernel)``
+(a cyclic or zero-padded shift; here any transition matrix), ``update(likelihood,
+prior)`` (no evidence returned) and ``normalize``.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, NamedTuple
+
+import numpy as np
+from scipy.special import ndtr
+
+from ._checks import as_array, as_int, as_positive_float, as_vector, check_callable
+
+__all__ = [
+    "BayesUpdate",
+    "BayesFilterResult",
+    "predict",
+    "update",
+    "bayes_filter",
+    "shift_transition",
+    "gaussian_kernel",
+    "grid_transition",
+    "grid_likelihood",
+    "gaussian_likelihood",
+]
+
+ROW_SUM_ATOL = 1e-9
+
+
+class BayesUpdate(NamedTuple):
+    """Result of :func:`update`.
+
+    posterior : ndarray, shape (n,)
+        :math:`p(x_t \\mid y_{0:t})`, sums to one.
+    evidence : float
+        :math:`p(y_t \\mid y_{0:t-1})`, the normaliser.
+    """
+
+    posterior: np.ndarray
+    evidence: float
+
+
+class BayesFilterResult(NamedTuple):
+    """Result of :func:`bayes_filter` over T steps.
+
+    priors : (T, n), ``priors[t]`` = :math:`p(x_t \\mid y_{0:t-1})` (``priors[0]`` the initial belief);
+    posteriors : (T, n), ``posteriors[t]`` = :math:`p(x_t \\mid y_{0:t})`;
+    evidences : (T,), :math:`p(y_t \\mid y_{0:t-1})`;
+    log_evidence : float, :math:`\\log p(y_{0:T-1}) = \\sum_t \\log` evidences.
+    """
+
+    priors: np.ndarray
+    posteriors: np.ndarray
+    evidences: np.ndarray
+    log_evidence: float
+
+
+# --------------------------------------------------------------------------
+# argument checks
+# --------------------------------------------------------------------------
+
+def _as_belief(name: str, belief, n: int | None = None) -> np.ndarray:
+    """A non-negative, finite vector with positive mass, returned normalised."""
+    b = as_vector(name, belief, n)
+    if np.any(b < 0):
+        i = int(np.argmin(b))
+        raise ValueError(f"{name} must be non-negative, got {name}[{i}] = {b[i]:.3g}")
+    total = b.sum()
+    if total <= 0:
+        raise ValueError(f"{name} must have positive total mass, got all zeros")
+    # Unnormalised beliefs are accepted: only their shape matters.
+    return b / total
+
+
+def _as_transition(name: str, transition, n: int | None = None) -> np.ndarray:
+    t = as_array(name, transition, ndim=2)
+    if t.shape[0] != t.shape[1]:
+        raise ValueError(f"{name} must be a square (n, n) matrix, got shape {t.shape}")
+    if n is not None and t.shape[0] != n:
+        raise ValueError(f"{name} must have shape ({n}, {n}) to match the belief, got shape {t.shape}")
+    if np.any(t < 0):
+        i, j = np.argwhere(t < 0)[0]
+        raise ValueError(f"{name} must be non-negative, got {name}[{i}, {j}] = {t[i, j]:.3g}")
+    sums = t.sum(axis=1)
+    bad = np.flatnonzero(np.abs(sums - 1.0) > ROW_SUM_ATOL)
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"{name} rows must sum to 1 (transition[i, j] = p(x_t = j | x_(t-1) = i)), "
+                         f"got row {i} summing to {sums[i]:.6g}")
+    return t
+
+
+def _as_likelihood(name: str, likelihood, n: int) -> np.ndarray:
+    lik = as_vector(name, likelihood, n)
+    if np.any(lik < 0):
+        i = int(np.argmin(lik))
+        raise ValueError(f"{name} must be non-negative, got {name}[{i}] = {lik[i]:.3g}")
+    return lik
+
+
+# --------------------------------------------------------------------------
+# the two steps and the recursion
+# --------------------------------------------------------------------------
+
+def predict(belief, transition) -> np.ndarray:
+    r"""Prediction step (Chapman-Kolmogorov): the prior over the next state.
+
+    .. math:: \bar b_j = \sum_i b_i\, T_{ij}
+
+    (seed 000 section 1; seed 001 "Prediction"; seed 002 eq. 12-13).
+
+    Parameters
+    ----------
+    belief : array_like, shape (n,)
+        :math:`p(x_{t-1} \mid y_{0:t-1})`. Normalised on entry if it is not.
+    transition : array_like, shape (n, n)
+        ``transition[i, j]`` = :math:`p(x_t = j \mid x_{t-1} = i, u_{t-1})`;
+        every row sums to 1. With a control input, pass the matrix the
+        control selects.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        :math:`p(x_t \mid y_{0:t-1})`, sums to one.
+    """
+    b = _as_belief("belief", belief)
+    t = _as_transition("transition", transition, b.shape[0])
+    # prior_j = sum_i belief_i T_ij
+    return b @ t
+
+
+def update(prior, likelihood) -> BayesUpdate:
+    r"""Measurement update (Bayes' rule) with the evidence as normaliser.
+
+    .. math::
+
+        p(x_t \mid y_{0:t}) = \frac{p(y_t \mid x_t)\, p(x_t \mid y_{0:t-1})}
+                                  {p(y_t \mid y_{0:t-1})}
+
+    (seed 001 eqs. 3-4; seed 002 eqs. 9-11).
+
+    Parameters
+    ----------
+    prior : array_like, shape (n,)
+        :math:`p(x_t \mid y_{0:t-1})`. Normalised on entry if it is not.
+    likelihood : array_like, shape (n,)
+        :math:`p(y_t \mid x_t = j)` for each state j, non-negative. Only its
+        shape matters for the posterior; its scale sets the evidence.
+
+    Returns
+    -------
+    BayesUpdate
+        ``posterior`` (n,) and ``evidence`` :math:`p(y_t \mid y_{0:t-1})`.
+
+    Raises
+    ------
+    ValueError
+        If the likelihood is zero wherever the prior has mass: the
+        measurement is impossible under the model (evidence 0), and no
+        posterior exists.
+    """
+    p = _as_belief("prior", prior)
+    lik = _as_likelihood("likelihood", likelihood, p.shape[0])
+    joint = p * lik
+    # evidence = sum_j p(y | x = j) p(x = j | y_0:t-1)
+    evidence = float(joint.sum())
+    if evidence <= 0.0:
+        raise ValueError("likelihood is zero wherever the prior has mass: the measurement has "
+                         "probability 0 under the model (evidence p(y_t | y_0:t-1) = 0), so there is "
+                         "no posterior. Check the measurement model, or whether the likelihood "
+                         "underflowed (rescale it).")
+    return BayesUpdate(joint / evidence, evidence)
+
+
+def bayes_filter(initial_belief, transitions, likelihoods) -> BayesFilterResult:
+    r"""Run the Bayes recursion: update, then predict, then update, ...
+
+    Seed 000's time convention: ``likelihoods[0]`` is the likelihood of
+    the first measurement :math:`y_0`, which measures :math:`x_0`, whose prior
+    is ``initial_belief``.
+
+    Parameters
+    ----------
+    initial_belief : array_like, shape (n,)
+        :math:`p(x_0)`.
+    transitions : array_like, shape (n, n) or (T - 1, n, n)
+        One transition matrix for every step, or ``transitions[t]`` for the
+        step from :math:`x_t` to :math:`x_{t+1}` (e.g. selected by the control
+        :math:`u_t`).
+    likelihoods : array_like, shape (T, n)
+        ``likelihoods[t, j]`` = :math:`p(y_t \mid x_t = j)`.
+
+    Returns
+    -------
+    BayesFilterResult
+    """
+    b0 = _as_belief("initial_belief", initial_belief)
+    n = b0.shape[0]
+    liks = as_array("likelihoods", likelihoods, ndim=2)
+    if liks.shape[1] != n:
+        raise ValueError(f"likelihoods must have shape (T, {n}), got shape {liks.shape}")
+    T = liks.shape[0]
+    if T == 0:
+        raise ValueError("likelihoods must have at least one row, got shape (0, n)")
+    trans = as_array("transitions", transitions)
+    if trans.ndim == 2:
+        trans = np.broadcast_to(_as_transition("transitions", trans, n), (max(T - 1, 0), n, n))
+    elif trans.ndim == 3:
+        if trans.shape[0] not in (T - 1, T) or trans.shape[1:] != (n, n):
+            raise ValueError(f"transitions must have shape ({n}, {n}) or ({T - 1}, {n}, {n}), "
+                             f"got shape {trans.shape}")
+        for t in range(T - 1):
+            _as_transition(f"transitions[{t}]", trans[t], n)
+    else:
+        raise ValueError(f"transitions must have shape ({n}, {n}) or ({T - 1}, {n}, {n}), "
+                         f"got shape {trans.shape}")
+    priors = np.empty((T, n))
+    posteriors = np.empty((T, n))
+    evidences = np.empty(T)
+    prior = b0
+    for t in range(T):
+        priors[t] = prior
+        try:
+            posteriors[t], evidences[t] = update(prior, liks[t])
+        except ValueError as exc:
+            raise ValueError(f"at step t = {t}: {exc}") from None
+        if t + 1 < T:
+            # prior_{t+1} = posterior_t @ T_t; rows were validated above.
+            prior = posteriors[t] @ trans[t]
+    return BayesFilterResult(priors, posteriors, evidences, float(np.sum(np.log(evidences))))
+
+
+# --------------------------------------------------------------------------
+# building transitions and likelihoods on a grid
+# --------------------------------------------------------------------------
+
+def shift_transition(n: int, kernel, offset: int = 0, cyclic: bool = True) -> np.ndarray:
+    r"""Transition matrix of a noisy shift on ``n`` cells.
+
+    From cell ``i`` the state moves to cell ``i + offset + k - c`` with
+    probability ``kernel[k]``, where ``c = len(kernel) // 2`` is the centre
+    of the (odd-length) kernel. This is filterpy's
+    ``discrete_bayes.predict(pdf, offset, kernel)`` written as a matrix.
+
+    Parameters
+    ----------
+    n : int
+        Number of cells.
+    kernel : array_like, shape (k,), k odd
+        Probabilities of the move error ``-c .. c``; non-negative, summing to 1.
+    offset : int
+        Commanded move in cells (negative: to the left).
+    cyclic : bool
+        ``True``: the grid is a ring (cell ``n`` is cell ``0``).
+        ``False``: a corridor with walls; probability that would leave the
+        grid stays in the end cell, so every row still sums to one
+        (filterpy's ``mode='constant'`` instead loses that mass).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        ``T[i, j]`` = :math:`p(x_t = j \mid x_{t-1} = i)`.
+    """
+    n = as_int("n", n, minimum=1)
+    offset = as_int("offset", offset)
+    if not isinstance(cyclic, (bool, np.bool_)):
+        raise TypeError(f"cyclic must be True or False, got {type(cyclic).__name__}")
+    k = as_vector("kernel", kernel)
+    if k.shape[0] % 2 == 0:
+        raise ValueError(f"kernel must have odd length (a centre cell), got length {k.shape[0]}")
+    if np.any(k < 0) or abs(k.sum() - 1.0) > ROW_SUM_ATOL:
+        raise ValueError(f"kernel must be non-negative and sum to 1, got sum {k.sum():.6g}")
+    centre = k.shape[0] // 2
+    T = np.zeros((n, n))
+    rows = np.arange(n)
+    for idx, weight in enumerate(k):
+        dest = rows + offset + idx - centre
+        dest = np.mod(dest, n) if cyclic else np.clip(dest, 0, n - 1)
+        # np.add.at accumulates when several moves land on one cell (walls, small rings).
+        np.add.at(T, (rows, dest), weight)
+    return T
+
+
+def gaussian_kernel(std: float, half_width: int | None = None) -> np.ndarray:
+    r"""Move-error kernel: a normal distribution of standard deviation ``std`` cells,
+    discretised by the probability of each cell :math:`[k - 1/2, k + 1/2]`.
+
+    Parameters
+    ----------
+    std : float
+        Standard deviation of the move error, in cells (> 0).
+    half_width : int, optional
+        The kernel covers offsets ``-half_width .. half_width``; default
+        ``ceil(4 std)``. The mass beyond is folded back by renormalising.
+
+    Returns
+    -------
+    ndarray, shape (2 half_width + 1,)
+        Non-negative, sums to one.
+    """
+    std = as_positive_float("std", std)
+    half_width = int(np.ceil(4 * std)) if half_width is None else as_int("half_width", half_width,
+                                                                          minimum=0)
+    edges = (np.arange(-half_width, half_width + 2) - 0.5) / std
+    probs = np.diff(ndtr(edges))
+    return probs / probs.sum()
+
+
+def grid_transition(grid, density: Callable) -> np.ndarray:
+    r"""Transition matrix from a transition density evaluated on a grid.
+
+    ``T[i, j]`` is proportional to ``density(grid[j], grid[i])`` =
+    :math:`p(x_t = g_j \mid x_{t-1} = g_i)`, each row normalised to one: the
+    grid approximation of a continuous model (e.g. :math:`x_t = a x_{t-1} + w`).
+
+    Parameters
+    ----------
+    grid : array_like, shape (n,)
+        Cell centres, strictly increasing.
+    density : callable
+        ``density(x_next, x_prev)`` evaluated with broadcasting on arrays of
+        shape (1, n) and (n, 1); must return shape (n, n), non-negative.
+    """
+    g = _as_grid(grid)
+    check_callable("density", density)
+    vals = as_array("density(x_next, x_prev)", density(g[None, :], g[:, None]), ndim=2)
+    if vals.shape != (g.shape[0], g.shape[0]):
+        raise ValueError(f"density(x_next, x_prev) must return shape {(g.shape[0],) * 2} on the "
+                         f"grid, got shape {vals.shape}")
+    if np.any(vals < 0):
+        raise ValueError("density(x_next, x_prev) must be non-negative")
+    sums = vals.sum(axis=1)
+    if np.any(sums <= 0):
+        i = int(np.flatnonzero(sums <= 0)[0])
+        raise ValueError(f"density(x_next, x_prev) is zero on the whole grid from grid[{i}] = "
+                         f"{g[i]:.4g}: widen the grid or the density")
+    return vals / sums[:, None]
+
+
+def grid_likelihood(grid, y, density: Callable) -> np.ndarray:
+    r"""Likelihood :math:`p(y \mid x = g_j)` of one measurement at every grid cell.
+
+    Parameters
+    ----------
+    grid : array_like, shape (n,)
+    y : float or array_like
+        The measurement.
+    density : callable
+        ``density(y, x)`` = :math:`p(y \mid x)`, vectorised over ``x`` (n,).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    g = _as_grid(grid)
+    check_callable("density", density)
+    vals = as_vector("density(y, grid)", density(y, g), g.shape[0])
+    if np.any(vals < 0):
+        raise ValueError("density(y, grid) must be non-negative")
+    return vals
+
+
+def gaussian_likelihood(grid, y: float, std: float) -> np.ndarray:
+    r"""Likelihood of a position measurement :math:`y = x + v`, :math:`v \sim N(0, \sigma^2)`.
+
+    Returns :math:`N(y; g_j, \sigma^2)` for every cell centre :math:`g_j`, shape (n,).
+    """
+    g = _as_grid(grid)
+    std = as_positive_float("std", std)
+    y = float(as_vector("y", y, 1)[0])
+    z = (y - g) / std
+    return np.exp(-0.5 * z * z) / (np.sqrt(2.0 * np.pi) * std)
+
+
+def _as_grid(grid) -> np.ndarray:
+    g = as_vector("grid", grid)
+    if g.shape[0] > 1 and np.any(np.diff(g) <= 0):
+        raise ValueError("grid must be strictly increasing")
+    return g

@@ -1,0 +1,379 @@
+r"""Extended Kalman filter (확장 칼만 필터): seed 000, section 3.1.
+
+When the transition or the measurement is nonlinear,
+
+.. math::
+
+    x_{t+1} = f(x_t) + G w_t,\quad w_t \sim N(0, Q);\qquad
+    y_t = h(x_t) + v_t,\quad v_t \sim N(0, R),
+
+the Kalman equations no longer apply: a Gaussian pushed through ``f`` or
+``h`` is not Gaussian. The EKF replaces each function by its first-order
+Taylor expansion around the current estimate,
+
+.. math::
+
+    f(x) \approx f(\hat x_{t|t}) + F (x - \hat x_{t|t}),\quad
+    F = \left.\frac{\partial f}{\partial x}\right|_{\hat x_{t|t}},\qquad
+    h(x) \approx h(\hat x_{t|t-1}) + H (x - \hat x_{t|t-1}),\quad
+    H = \left.\frac{\partial h}{\partial x}\right|_{\hat x_{t|t-1}},
+
+and runs the Kalman filter on the linearised system, keeping the nonlinear
+functions for the means. Import it as ``bf.ekf``::
+
+    import bayesfilt as bf
+    model = bf.models.range_bearing()
+    xs, ys = bf.models.simulate(model, 100, np.random.default_rng(0),
+                                x0=bf.models.RANGE_BEARING_TRUE_START)
+    result = bf.ekf.extended_kalman_filter(model, ys)
+
+Letters: the course's ``F`` and ``H`` are Kay's Jacobians :math:`A[n-1]` and
+:math:`H[n]` (filterpy: ``ekf.F`` and the ``HJacobian`` function); ``G`` is
+Kay's ``B``; ``R`` is Kay's ``C[n]``; ``P`` is Kay's ``M``. In Kay's
+notation the *measurement* is called x[n] and the state s[n].
+
+Use :func:`numerical_jacobian` to check a hand-written Jacobian before
+trusting a filter that uses it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._checks import as_covariance, as_matrix, as_vector, check_callable
+from .kalman import FilterResult, Prediction, Update
+
+__all__ = ["predict", "update", "extended_kalman_filter", "numerical_jacobian"]
+
+LOG_2PI = np.log(2.0 * np.pi)
+
+
+# --------------------------------------------------------------------------
+# Checked calls of user functions: a wrong shape or a NaN stops here, with
+# the name of the function, instead of propagating into the estimate.
+# --------------------------------------------------------------------------
+
+def _call(where: str, name: str, fun, x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """Evaluate ``fun(x)`` and require a finite float array of ``shape``."""
+    out = np.asarray(fun(x.copy()), dtype=float)
+    if out.shape != shape:
+        raise ValueError(f"{where}: {name} must return shape {shape}, got shape {out.shape}")
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"{where}: {name} returned non-finite values (NaN or inf) "
+                         f"at x = {np.array2string(x, precision=4)}")
+    return out
+
+
+def _as_noise_gain(where: str, G, n: int, q: int) -> np.ndarray:
+    if G is None:
+        if q != n:
+            raise ValueError(f"{where}: Q must have shape ({n}, {n}) when G is omitted (G = I), "
+                             f"got shape ({q}, {q})")
+        return np.eye(n)
+    return as_matrix("G", G, (n, q))
+
+
+# --------------------------------------------------------------------------
+# The two steps
+# --------------------------------------------------------------------------
+
+def predict(x, P, f, F, Q, G=None) -> Prediction:
+    r"""EKF prediction (예측): propagate the mean through ``f``, the covariance through ``F``.
+
+    Seed 000, section 3.1, "Prediction" and "Minimum Prediction MSE Matrix"
+    (Kay: :math:`\hat s[n|n-1] = a(\hat s[n-1|n-1])`,
+    :math:`M[n|n-1] = A[n-1] M[n-1|n-1] A^T[n-1] + B Q B^T`):
+
+    .. math::
+
+        \hat x_{t+1|t} = f(\hat x_{t|t}),\qquad
+        P_{t+1|t} = F P_{t|t} F^T + G Q G^T,\qquad
+        F = \left.\frac{\partial f}{\partial x}\right|_{\hat x_{t|t}}.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Filtered mean :math:`\hat x_{t|t}`.
+    P : array_like, shape (n, n)
+        Filtered covariance :math:`P_{t|t}`.
+    f : callable
+        Transition function, (n,) -> (n,).
+    F : callable
+        Its Jacobian, (n,) -> (n, n), evaluated at ``x``.
+    Q : array_like, shape (q, q)
+        Process-noise covariance.
+    G : array_like, shape (n, q), optional
+        Noise gain (Kay's B); identity if omitted.
+
+    Returns
+    -------
+    Prediction
+        ``mean`` (n,) and ``cov`` (n, n).
+
+    Raises
+    ------
+    ValueError
+        If ``f`` or ``F`` returns the wrong shape or a non-finite value.
+
+    Notes
+    -----
+    filterpy: ``ExtendedKalmanFilter.predict()`` computes ``F @ x``, so it is
+    only right for a linear ``f``; set ``ekf.F`` to the Jacobian and
+    ``ekf.Q`` to ``G Q G^T`` before calling it.
+    """
+    x = as_vector("x", x)
+    n = x.shape[0]
+    P = as_covariance("P", P, n)
+    check_callable("f", f)
+    check_callable("F", F)
+    Q = as_covariance("Q", Q)
+    G = _as_noise_gain("ekf.predict", G, n, Q.shape[0])
+    # The Jacobian is taken at the filtered mean, before it moves (Kay's A[n-1]).
+    Fx = _call("ekf.predict", "Jacobian F", F, x, (n, n))
+    # x_{t+1|t} = f(x_{t|t}): the mean goes through the nonlinear function itself.
+    x_pred = _call("ekf.predict", "f", f, x, (n,))
+    # P_{t+1|t} = F P F^T + G Q G^T
+    P_pred = Fx @ P @ Fx.T + G @ Q @ G.T
+    return Prediction(x_pred, P_pred)
+
+
+def update(x, P, y, h, H, R, residual=None) -> Update:
+    r"""EKF measurement update (측정 업데이트) with the Jacobian ``H`` at the predicted mean.
+
+    Seed 000, section 3.1, "Kalman Gain Matrix", "Correction" and "Minimum
+    MSE Matrix", in the course letters:
+
+    .. math::
+
+        S = H P H^T + R,\qquad K = P H^T S^{-1},\qquad
+        \hat x_{t|t} = \hat x_{t|t-1} + K\,(y_t - h(\hat x_{t|t-1})),
+
+        P_{t|t} = (I - K H) P (I - K H)^T + K R K^T,
+
+    with :math:`H = \partial h / \partial x` at :math:`\hat x_{t|t-1}`.
+    The seed (after Kay) writes :math:`M[n|n] = (I - K H) M[n|n-1]`; the
+    Joseph form used here is algebraically equal for the optimal gain K but
+    stays symmetric and positive semi-definite under rounding (filterpy uses
+    it too).
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Predicted mean :math:`\hat x_{t|t-1}`.
+    P : array_like, shape (n, n)
+        Predicted covariance :math:`P_{t|t-1}`.
+    y : array_like, shape (m,)
+        Measurement :math:`y_t` (finite; a missing measurement is simply not
+        passed to ``update``).
+    h : callable
+        Measurement function, (n,) -> (m,).
+    H : callable
+        Its Jacobian, (n,) -> (m, n), evaluated at ``x``.
+    R : array_like, shape (m, m)
+        Measurement-noise covariance.
+    residual : callable, optional
+        ``residual(y, y_pred)`` -> innovation (m,); defaults to
+        ``y - y_pred``. An angle needs wrapping, e.g.
+        ``bf.models.range_bearing_residual``.
+
+    Returns
+    -------
+    Update
+        ``mean``, ``cov``, ``gain`` K (n, m), ``innovation`` (m,),
+        ``innovation_cov`` S (m, m) and ``loglik``
+        :math:`\log N(\text{innovation}; 0, S)`.
+
+    Raises
+    ------
+    ValueError
+        If ``h``, ``H`` or ``residual`` returns the wrong shape or a
+        non-finite value, or if S is singular.
+
+    Notes
+    -----
+    filterpy: ``ExtendedKalmanFilter.update(y, HJacobian=H, Hx=h, R=R,
+    residual=residual)``.
+    """
+    x = as_vector("x", x)
+    n = x.shape[0]
+    P = as_covariance("P", P, n)
+    R = as_covariance("R", R)
+    m = R.shape[0]
+    y = as_vector("y", y, m)
+    check_callable("h", h)
+    check_callable("H", H)
+    Hx = _call("ekf.update", "Jacobian H", H, x, (m, n))
+    y_pred = _call("ekf.update", "h", h, x, (m,))
+    if residual is None:
+        innovation = y - y_pred
+    else:
+        check_callable("residual", residual)
+        innovation = _call("ekf.update", "residual",
+                           lambda _: residual(y.copy(), y_pred.copy()), x, (m,))
+    # S = H P H^T + R
+    S = Hx @ P @ Hx.T + R
+    S = 0.5 * (S + S.T)
+    eig = np.linalg.eigvalsh(S)
+    if not eig[0] > m * np.finfo(float).eps * max(eig[-1], np.finfo(float).tiny):
+        raise ValueError(f"ekf.update: innovation covariance S = H P H^T + R is singular "
+                         f"(eigenvalues {eig[0]:.3g} .. {eig[-1]:.3g}); give R a positive "
+                         f"variance on every measurement component")
+    chol = np.linalg.cholesky(S)
+    # K = P H^T S^{-1}, by two triangular solves instead of an inverse
+    PHt = P @ Hx.T
+    K = np.linalg.solve(chol.T, np.linalg.solve(chol, PHt.T)).T
+    # x_{t|t} = x_{t|t-1} + K (y - h(x_{t|t-1}))
+    x_new = x + K @ innovation
+    # P_{t|t} = (I - K H) P (I - K H)^T + K R K^T   (Joseph form)
+    I_KH = np.eye(n) - K @ Hx
+    P_new = I_KH @ P @ I_KH.T + K @ R @ K.T
+    # log N(e; 0, S) = -1/2 (e^T S^{-1} e + log det S + m log 2 pi)
+    z = np.linalg.solve(chol, innovation)
+    loglik = -0.5 * (z @ z + 2.0 * np.sum(np.log(np.diag(chol))) + m * LOG_2PI)
+    return Update(x_new, P_new, K, innovation, S, float(loglik))
+
+
+# --------------------------------------------------------------------------
+# The whole run
+# --------------------------------------------------------------------------
+
+def extended_kalman_filter(model, ys) -> FilterResult:
+    r"""Run the EKF over all measurements of a :class:`bf.models.NonlinearGaussian`.
+
+    Same time convention and result fields as ``bf.kalman.kalman_filter``:
+    ``ys[0]`` measures :math:`x_0`, so the first step is an update of the
+    prior :math:`N(m_0, P_0)` (``pred_means[0] = m0``); afterwards each step
+    is :func:`predict` then :func:`update`. A row of ``ys`` that is all NaN is
+    a missing measurement: the prediction is kept (``means[t] =
+    pred_means[t]``), the innovation is NaN, the gain and the log-likelihood
+    contribution are zero.
+
+    Parameters
+    ----------
+    model : bf.models.NonlinearGaussian
+        Supplies ``f``, ``F``, ``h``, ``H``, ``Q``, ``R``, ``G``, ``m0``,
+        ``P0`` and ``model.residual``. Wrap a linear model with
+        ``bf.models.to_nonlinear`` (the EKF then equals the Kalman filter).
+    ys : array_like, shape (T, m)
+        Measurements.
+
+    Returns
+    -------
+    bf.kalman.FilterResult
+        ``means``, ``covs``, ``pred_means``, ``pred_covs``, ``innovations``,
+        ``innovation_covs``, ``gains``, ``step_logliks``, ``loglik`` and
+        ``observed``. ``loglik`` is the EKF's *approximation* of
+        :math:`\log p(y_0, \dots, y_{T-1})` (exact only for a linear model).
+
+    Raises
+    ------
+    ValueError
+        If a row of ``ys`` is partly NaN or contains inf, or if a step fails
+        (the message names the step t and the function at fault).
+    """
+    from .models import NonlinearGaussian  # local import keeps module loading light
+
+    where = "extended_kalman_filter"
+    if not isinstance(model, NonlinearGaussian):
+        raise TypeError(f"{where}: model must be a bf.models.NonlinearGaussian, got "
+                        f"{type(model).__name__} (wrap a linear model with "
+                        f"bf.models.to_nonlinear)")
+    n, m = model.state_dim, model.obs_dim
+    ys = as_matrix("ys", ys, (None, m), finite=False)
+    T = ys.shape[0]
+    if T == 0:
+        raise ValueError(f"{where}: ys must have at least one row, got shape {ys.shape}")
+    nan = np.isnan(ys)
+    observed = ~np.all(nan, axis=1)
+    bad = np.flatnonzero((np.any(nan, axis=1) & observed) | np.any(np.isinf(ys), axis=1))
+    if bad.size:
+        raise ValueError(f"ys row {bad[0]} must be all finite or all NaN (missing), "
+                         f"got {np.array2string(ys[bad[0]], precision=4)}")
+
+    means, covs = np.empty((T, n)), np.empty((T, n, n))
+    pred_means, pred_covs = np.empty((T, n)), np.empty((T, n, n))
+    innovations, innovation_covs = np.full((T, m), np.nan), np.full((T, m, m), np.nan)
+    gains, step_logliks = np.zeros((T, n, m)), np.zeros(T)
+    x, P = model.m0.copy(), model.P0.copy()
+    for t in range(T):
+        try:
+            if t > 0:
+                x, P = predict(x, P, model.f, model.F, model.Q, model.G)
+            pred_means[t], pred_covs[t] = x, P
+            if observed[t]:
+                up = update(x, P, ys[t], model.h, model.H, model.R, residual=model.residual)
+                x, P = up.mean, up.cov
+                innovations[t], innovation_covs[t] = up.innovation, up.innovation_cov
+                gains[t], step_logliks[t] = up.gain, up.loglik
+        except ValueError as exc:
+            raise ValueError(f"{where}, step t = {t}: {exc}") from exc
+        means[t], covs[t] = x, P
+    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
+                        gains, step_logliks, float(step_logliks.sum()), observed)
+
+
+# --------------------------------------------------------------------------
+# Checking Jacobians
+# --------------------------------------------------------------------------
+
+def numerical_jacobian(fun, x, step=None) -> np.ndarray:
+    r"""Jacobian of ``fun`` at ``x`` by central differences, shape (k, n).
+
+    .. math::
+
+        J_{:, i} \approx \frac{\mathrm{fun}(x + \delta_i e_i) - \mathrm{fun}(x - \delta_i e_i)}
+        {2 \delta_i},
+
+    with the truncation error :math:`O(\delta^2)`. The default step
+    :math:`\delta_i = \epsilon^{1/3} \max(1, |x_i|)` (about
+    :math:`6 \times 10^{-6}`) balances truncation against rounding, so expect
+    agreement with an exact Jacobian to about 1e-8 relative, not to machine
+    precision.
+
+    Parameters
+    ----------
+    fun : callable
+        (n,) -> (k,) (or a scalar, treated as k = 1).
+    x : array_like, shape (n,)
+        Point of evaluation.
+    step : float or array_like, shape (n,), optional
+        Step(s) :math:`\delta_i > 0`.
+
+    Returns
+    -------
+    ndarray, shape (k, n)
+
+    Notes
+    -----
+    A function with a jump, such as a bearing ``atan2`` on the negative
+    x-axis, has no derivative there; differencing across the jump gives a
+    huge number. Evaluate away from the cut.
+    """
+    where = "numerical_jacobian"
+    check_callable("fun", fun)
+    x = as_vector("x", x)
+    n = x.shape[0]
+    if step is None:
+        steps = np.cbrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
+    else:
+        steps = as_vector("step", np.broadcast_to(np.asarray(step, dtype=float), (n,))
+                          if np.ndim(step) == 0 else step, n)
+        if not np.all(steps > 0):
+            raise ValueError(f"step must be > 0, got {np.array2string(steps, precision=4)}")
+
+    def g(z):  # a scalar output counts as a vector of length 1
+        return np.atleast_1d(np.asarray(fun(z), dtype=float))
+
+    f0 = g(x.copy())
+    if f0.ndim != 1:
+        raise ValueError(f"{where}: fun must return a vector (k,), got shape {f0.shape}")
+    _call(where, "fun", g, x, f0.shape)
+    J = np.empty((f0.shape[0], n))
+    for i in range(n):
+        up, down = x.copy(), x.copy()
+        up[i] += steps[i]
+        down[i] -= steps[i]
+        # Divide by the step actually taken (x + d may round), not by 2 d.
+        J[:, i] = ((_call(where, "fun", g, up, f0.shape) - _call(where, "fun", g, down, f0.shape))
+                   / (up[i] - down[i]))
+    return J

@@ -1,0 +1,322 @@
+r"""Gaussian vectors: conditioning, densities, sampling and consistency tests.
+
+The Kalman filter is one fact about Gaussians applied over and over: if
+:math:`x` and :math:`y` are jointly Gaussian, then :math:`x` given
+:math:`y` is Gaussian again, with a mean that is linear in :math:`y` and a
+covariance that does not depend on :math:`y` at all (Kay's Theorem 10.2,
+quoted in seed 000, section 2). This module holds that fact and the few
+tools the course needs around it. Import it as ``bf.gaussian``::
+
+    import numpy as np
+    import bayesfilt as bf
+
+    # x ~ N(0, 1) measured once with noise variance 0.5: y = x + v
+    post = bf.gaussian.condition(mean_x=[0.0], mean_y=[0.0], cov_xx=[[1.0]],
+                                 cov_xy=[[1.0]], cov_yy=[[1.5]], y=[0.9])
+    post.mean, post.cov          # (0.6,), ((0.3333,),)
+
+    # Log-density of one point (n,) or of many points (N, n)
+    bf.gaussian.logpdf([0.1, 0.2], mean=np.zeros(2), cov=np.eye(2))
+
+    # Draws, also from a singular (positive semi-definite) covariance
+    xs = bf.gaussian.sample(np.random.default_rng(0), np.zeros(2),
+                            [[1.0, 1.0], [1.0, 1.0]], size=1000)
+
+    # Consistency of a filter: NEES of estimation errors e_t (T, n) with
+    # covariances P_t (T, n, n), and the 95 % interval of its average over
+    # n_runs Monte Carlo runs
+    nees = bf.gaussian.squared_mahalanobis(errors, covs)        # (T,)
+    low, high = bf.gaussian.chi2_interval(dof=n, n_runs=50)
+
+Conditioning (seed 000, Theorem 10.2, eqs. (10.24)-(10.25)). Kay states
+the theorem for :math:`y` given :math:`x`; the Kalman update needs it with
+the roles swapped, which is what :func:`condition` computes:
+
+.. math::
+
+    E(x \mid y) = E(x) + C_{xy} C_{yy}^{-1} (y - E(y)), \qquad
+    C_{x \mid y} = C_{xx} - C_{xy} C_{yy}^{-1} C_{yx}.
+
+Numerics. :math:`C_{yy}^{-1}` is never formed: a Cholesky factor of
+:math:`C_{yy}` is used to *solve* the linear systems, which is cheaper and
+more accurate than inverting, and fails loudly if :math:`C_{yy}` is not
+positive definite.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy import linalg as sla
+from scipy import stats
+
+from ._checks import (as_array, as_covariance, as_int, as_matrix, as_rng, as_vector)
+
+__all__ = [
+    "Gaussian",
+    "condition",
+    "logpdf",
+    "sample",
+    "squared_mahalanobis",
+    "chi2_interval",
+]
+
+LOG_2PI = np.log(2.0 * np.pi)
+
+
+class Gaussian(NamedTuple):
+    """A Gaussian distribution: ``mean`` (n,) and ``cov`` (n, n). Unpacks as ``m, P``."""
+
+    mean: np.ndarray
+    cov: np.ndarray
+
+
+def _cholesky(name: str, cov: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factor of ``cov``; ValueError naming ``name`` if not positive definite."""
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        eig_min = float(np.linalg.eigvalsh(0.5 * (cov + np.swapaxes(cov, -1, -2))).min())
+        raise ValueError(f"{name} must be positive definite, got smallest eigenvalue "
+                         f"{eig_min:.3g}") from None
+
+
+def _factor(cov: np.ndarray) -> np.ndarray:
+    """A matrix L with L L^T = cov, also when cov is only positive semi-definite."""
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        vals, vecs = np.linalg.eigh(cov)
+        return vecs * np.sqrt(np.clip(vals, 0.0, None))
+
+
+def condition(mean_x, mean_y, cov_xx, cov_xy, cov_yy, y) -> Gaussian:
+    r"""Distribution of :math:`x` given :math:`y` for a jointly Gaussian pair.
+
+    Seed 000, Theorem 10.2, eqs. (10.24)-(10.25), with the roles of x and y
+    exchanged (Kay conditions y on x; the Kalman update conditions the state
+    on the measurement):
+
+    .. math::
+
+        E(x \mid y) = \mu_x + C_{xy} C_{yy}^{-1} (y - \mu_y), \qquad
+        C_{x \mid y} = C_{xx} - C_{xy} C_{yy}^{-1} C_{xy}^T.
+
+    Parameters
+    ----------
+    mean_x : array_like, shape (k,)
+        :math:`E(x)`.
+    mean_y : array_like, shape (l,)
+        :math:`E(y)`.
+    cov_xx : array_like, shape (k, k)
+        :math:`C_{xx}`, symmetric positive semi-definite.
+    cov_xy : array_like, shape (k, l)
+        Cross-covariance :math:`C_{xy} = E[(x - \mu_x)(y - \mu_y)^T]`
+        (:math:`C_{yx} = C_{xy}^T`).
+    cov_yy : array_like, shape (l, l)
+        :math:`C_{yy}`, symmetric positive definite (it is solved against).
+    y : array_like, shape (l,)
+        The observed value of :math:`y`.
+
+    Returns
+    -------
+    Gaussian
+        ``mean`` (k,) and ``cov`` (k, k), the latter symmetrised exactly.
+
+    Raises
+    ------
+    ValueError
+        On a shape mismatch, a non-finite entry, a ``cov_yy`` that is not
+        positive definite, or blocks that do not form a positive
+        semi-definite joint covariance.
+    """
+    mean_x = as_vector("mean_x", mean_x)
+    k = mean_x.shape[0]
+    mean_y = as_vector("mean_y", mean_y)
+    l_ = mean_y.shape[0]
+    cov_xx = as_covariance("cov_xx", cov_xx, k)
+    cov_xy = as_matrix("cov_xy", cov_xy, (k, l_))
+    cov_yy = as_covariance("cov_yy", cov_yy, l_)
+    y = as_vector("y", y, l_)
+    joint = np.block([[cov_xx, cov_xy], [cov_xy.T, cov_yy]])
+    eig_min = float(np.linalg.eigvalsh(joint).min())
+    if eig_min < -1e-9 * max(float(np.max(np.abs(joint))), 1e-300) * (k + l_):
+        raise ValueError("cov_xy is inconsistent with cov_xx and cov_yy: the joint covariance "
+                         f"[[cov_xx, cov_xy], [cov_xy^T, cov_yy]] has eigenvalue {eig_min:.3g} < 0")
+    factor = (_cholesky("cov_yy", cov_yy), True)
+    # W = C_xy C_yy^{-1}, from C_yy W^T = C_yx (solve, do not invert)
+    W = sla.cho_solve(factor, cov_xy.T, check_finite=False).T
+    # E(x|y) = mu_x + C_xy C_yy^{-1} (y - mu_y)          (10.24)
+    mean = mean_x + W @ (y - mean_y)
+    # C_{x|y} = C_xx - C_xy C_yy^{-1} C_yx              (10.25)
+    cov = cov_xx - W @ cov_xy.T
+    # The difference is symmetric in exact arithmetic only; make it exactly so.
+    cov = 0.5 * (cov + cov.T)
+    return Gaussian(mean, cov)
+
+
+def logpdf(x, mean, cov):
+    r"""Log-density of :math:`N(\text{mean}, \text{cov})` at one or many points.
+
+    .. math::
+
+        \log N(x; m, P) = -\tfrac12\left[(x-m)^T P^{-1} (x-m) + \log\det P
+        + n \log 2\pi\right],
+
+    evaluated with the Cholesky factor :math:`P = L L^T`:
+    :math:`(x-m)^T P^{-1}(x-m) = \lVert L^{-1}(x-m)\rVert^2` and
+    :math:`\log\det P = 2\sum_i \log L_{ii}`.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,) or (N, n)
+        One point or N points (rows).
+    mean : array_like, shape (n,)
+    cov : array_like, shape (n, n)
+        Symmetric positive definite.
+
+    Returns
+    -------
+    float or ndarray, shape (N,)
+        A float for one point, an array for a batch.
+    """
+    mean = as_vector("mean", mean)
+    n = mean.shape[0]
+    cov = as_covariance("cov", cov, n)
+    xa = as_array("x", x)
+    if xa.ndim == 0 and n == 1:
+        xa = xa.reshape(1)
+    if not ((xa.ndim == 1 and xa.shape[0] == n) or (xa.ndim == 2 and xa.shape[1] == n)):
+        raise ValueError(f"x must have shape ({n},) or (N, {n}), got shape {xa.shape}")
+    L = _cholesky("cov", cov)
+    d = np.atleast_2d(xa) - mean
+    # z = L^{-1} (x - m), so z^T z = (x - m)^T P^{-1} (x - m)
+    z = sla.solve_triangular(L, d.T, lower=True, check_finite=False)
+    maha = np.sum(z * z, axis=0)
+    log_det = 2.0 * np.sum(np.log(np.diag(L)))
+    out = -0.5 * (maha + log_det + n * LOG_2PI)
+    return float(out[0]) if xa.ndim == 1 else out
+
+
+def sample(rng: np.random.Generator, mean, cov, size: int) -> np.ndarray:
+    r"""Draw ``size`` samples of :math:`N(\text{mean}, \text{cov})`.
+
+    Each draw is :math:`m + L z` with :math:`z \sim N(0, I)` and
+    :math:`L L^T = P`. ``cov`` may be singular (positive semi-definite): then
+    :math:`L` comes from an eigen-decomposition instead of Cholesky and the
+    draws lie in the subspace the covariance allows.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    mean : array_like, shape (n,)
+    cov : array_like, shape (n, n)
+        Symmetric positive semi-definite.
+    size : int
+        Number of draws (>= 1).
+
+    Returns
+    -------
+    ndarray, shape (size, n)
+    """
+    rng = as_rng("rng", rng)
+    mean = as_vector("mean", mean)
+    n = mean.shape[0]
+    cov = as_covariance("cov", cov, n)
+    size = as_int("size", size, minimum=1)
+    z = rng.standard_normal((size, n))
+    return mean + z @ _factor(cov).T
+
+
+def squared_mahalanobis(diffs, covs) -> np.ndarray:
+    r"""Squared Mahalanobis distances :math:`d^T P^{-1} d`, broadcast over leading axes.
+
+    With estimation errors :math:`e_t = x_t - \hat x_{t|t}` and the filter's
+    covariances this is the NEES (normalised estimation error squared); with
+    innovations and innovation covariances it is the NIS. For a consistent
+    filter each value is :math:`\chi^2` with ``n`` degrees of freedom (see
+    :func:`chi2_interval`).
+
+    Parameters
+    ----------
+    diffs : array_like, shape (..., n)
+        Vectors d, e.g. (T, n) errors of one run or (M, T, n) of M runs.
+    covs : array_like, shape (..., n, n)
+        Positive definite matrices; the leading axes broadcast against those
+        of ``diffs`` (one (n, n) matrix for all, or (T, n, n) shared by M
+        runs, ...).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The broadcast leading shape (a 0-d array for a single pair).
+
+    Raises
+    ------
+    ValueError
+        If the trailing shapes do not match, leading axes do not broadcast,
+        an entry is not finite or a covariance is not positive definite.
+    """
+    d = as_array("diffs", diffs)
+    P = as_array("covs", covs)
+    if d.ndim < 1:
+        raise ValueError(f"diffs must have shape (..., n), got scalar {d!r}")
+    n = d.shape[-1]
+    if P.ndim < 2 or P.shape[-2:] != (n, n):
+        raise ValueError(f"covs must have shape (..., {n}, {n}) to match diffs (..., {n}), "
+                         f"got shape {P.shape}")
+    try:
+        lead = np.broadcast_shapes(d.shape[:-1], P.shape[:-2])
+    except ValueError:
+        raise ValueError(f"leading axes of diffs {d.shape[:-1]} and covs {P.shape[:-2]} "
+                         "do not broadcast") from None
+    asym = np.max(np.abs(P - np.swapaxes(P, -1, -2))) if P.size else 0.0
+    if asym > 1e-9 * max(float(np.max(np.abs(P))), 1e-300):
+        raise ValueError(f"covs must be symmetric, got max |P - P^T| = {asym:.3g}")
+    try:
+        L = np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        raise ValueError("covs must be positive definite (every matrix), "
+                         "Cholesky factorisation failed") from None
+    L = np.broadcast_to(L, lead + (n, n))
+    d = np.broadcast_to(d, lead + (n,))
+    # z = L^{-1} d, then d^T P^{-1} d = z^T z (one batched solve, no inverse)
+    z = np.linalg.solve(L, d[..., None])[..., 0]
+    return np.sum(z * z, axis=-1)
+
+
+def chi2_interval(dof: int, n_runs: int = 1, confidence: float = 0.95) -> tuple[float, float]:
+    r"""Two-sided interval for the *average* of ``n_runs`` independent :math:`\chi^2(\text{dof})`.
+
+    The sum of ``n_runs`` independent :math:`\chi^2(\text{dof})` values is
+    :math:`\chi^2(n_\text{runs}\,\text{dof})`; the bounds of its central
+    ``confidence`` interval divided by ``n_runs`` bound the average. Use it
+    for the average NEES (dof = n) or NIS (dof = m) over Monte Carlo runs.
+
+    Parameters
+    ----------
+    dof : int
+        Degrees of freedom of each value (>= 1).
+    n_runs : int
+        Number of independent runs averaged (>= 1).
+    confidence : float
+        Probability mass inside the interval, in (0, 1).
+
+    Returns
+    -------
+    (float, float)
+        ``(low, high)``; the average lies inside with probability ``confidence``.
+    """
+    dof = as_int("dof", dof, minimum=1)
+    n_runs = as_int("n_runs", n_runs, minimum=1)
+    if isinstance(confidence, bool) or not isinstance(confidence, (int, float, np.floating)):
+        raise TypeError(f"confidence must be a real number, got {type(confidence).__name__}")
+    confidence = float(confidence)
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    total = n_runs * dof
+    alpha = 1.0 - confidence
+    low = stats.chi2.ppf(0.5 * alpha, total) / n_runs
+    high = stats.chi2.ppf(1.0 - 0.5 * alpha, total) / n_runs
+    return float(low), float(high)
