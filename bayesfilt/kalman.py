@@ -1,10 +1,83 @@
-"""Kalman filter (seed 000, section 2). WORK IN PROGRESS: result types only so far."""
+r"""Kalman filter (seed 000, section 2): exact Bayesian filtering for linear-Gaussian models.
+
+For the model of :class:`bayesfilt.models.LinearGaussian`,
+
+.. math::
+
+    x_{t+1} = A x_t + B u_t + G w_t,\quad w_t \sim N(0, Q);\qquad
+    y_t = C x_t + v_t,\quad v_t \sim N(0, R);\qquad x_0 \sim N(m_0, P_0),
+
+every belief of the Bayes recursion is Gaussian, and the filter only has to
+carry a mean and a covariance. Two steps alternate (seed 000, "Dynamic
+update", "Measurement update", "Kalman gain"):
+
+* prediction (예측): :math:`\hat x_{t+1|t} = A \hat x_{t|t} + B u_t`,
+  :math:`P_{t+1|t} = A P_{t|t} A^T + G Q G^T`;
+* measurement update (측정 업데이트): with the innovation
+  :math:`r = y - C\hat x_{t|t-1}`, its covariance :math:`S = C P C^T + R` and
+  the gain :math:`K = P C^T S^{-1}`, :math:`\hat x_{t|t} = \hat x_{t|t-1} + K r`
+  and :math:`P_{t|t} = (I - KC) P (I - KC)^T + K R K^T`.
+
+Import it as ``bf.kalman``::
+
+    import numpy as np
+    import bayesfilt as bf
+
+    model = bf.models.damped_particle()
+    xs, ys = bf.models.simulate(model, 200, np.random.default_rng(0))
+
+    # one step at a time (unpacks like a tuple) ...
+    x, P = bf.kalman.predict(model.m0, model.P0, model.A, model.Q, G=model.G)
+    step = bf.kalman.update(x, P, ys[1], model.C, model.R)
+
+    # ... or a whole run; ys[0] measures x_0 (seed 000's time convention)
+    res = bf.kalman.kalman_filter(model, ys)
+    res.means, res.covs, res.loglik          # (T, n), (T, n, n), float
+
+    # many runs of the same model at once (M, T, m) -> every field gets an M axis
+    res_m = bf.kalman.batch_kalman_filter(model, ys_many)
+
+    # the covariance and gain the filter settles to
+    ss = bf.kalman.steady_state(model)       # pred_cov, cov, gain
+
+A row of ``ys`` that is entirely NaN is a missing measurement: the filter
+only predicts through it.
+
+Time convention (seed 000): ``ys[0]`` measures :math:`x_0 \sim N(m_0, P_0)`,
+so ``pred_means[0] = m0``, ``pred_covs[0] = P0`` and ``means[t]`` is
+:math:`E[x_t \mid y_0, \dots, y_t]`.
+
+filterpy map (``filterpy.kalman.KalmanFilter``): ``A`` = ``F``, ``C`` =
+``H``, ``R`` = ``R``, ``B`` = ``B``, ``m0``/``P0`` = initial ``x``/``P``,
+and filterpy has no ``G``: its ``Q`` is the course's :math:`G Q G^T`.
+filterpy predicts *before* it updates, so to reproduce :func:`kalman_filter`
+start it at ``x = m0, P = P0``, call ``update(ys[0])`` first, then
+``predict(); update(ys[t])`` for t = 1, 2, ...
+"""
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
 import numpy as np
+from scipy import linalg as sla
+
+from ._checks import as_array, as_covariance, as_matrix, as_square, as_vector
+from .models import LinearGaussian
+
+__all__ = [
+    "Prediction",
+    "Update",
+    "FilterResult",
+    "SteadyState",
+    "predict",
+    "update",
+    "kalman_filter",
+    "batch_kalman_filter",
+    "steady_state",
+]
+
+LOG_2PI = np.log(2.0 * np.pi)
 
 
 class Prediction(NamedTuple):
@@ -51,3 +124,498 @@ class FilterResult(NamedTuple):
     step_logliks: np.ndarray
     loglik: float | np.ndarray
     observed: np.ndarray
+
+
+class SteadyState(NamedTuple):
+    """Limits of the covariance recursion (see :func:`steady_state`).
+
+    pred_cov (n, n): limit of the predicted covariance P_{t|t-1};
+    cov (n, n): limit of the filtered covariance P_{t|t};
+    gain (n, m): limit of the Kalman gain K_t.
+    """
+
+    pred_cov: np.ndarray
+    cov: np.ndarray
+    gain: np.ndarray
+
+
+# --------------------------------------------------------------------------
+# Unchecked kernels: the filters validate once, then call these every step.
+# --------------------------------------------------------------------------
+
+def _predict(x, P, A, GQGt, Bu=None):
+    # x_{t+1|t} = A x_{t|t} + B u_t
+    x = A @ x
+    if Bu is not None:
+        x = x + Bu
+    # P_{t+1|t} = A P_{t|t} A^T + G Q G^T
+    P = A @ P @ A.T + GQGt
+    return x, 0.5 * (P + P.T)
+
+
+def _update(x, P, y, C, R, eye_n):
+    m = C.shape[0]
+    # r = y - C x   (innovation)
+    r = y - C @ x
+    PCt = P @ C.T
+    # S = C P C^T + R
+    S = C @ PCt + R
+    try:
+        L = np.linalg.cholesky(S)
+    except np.linalg.LinAlgError:
+        raise ValueError("innovation covariance S = C P C^T + R is not positive definite "
+                         "(R must be positive definite, or C P C^T must make up for it)") from None
+    # K = P C^T S^{-1}: solve S [K^T, S^{-1} r] = [C P, r] in one call (no inverse)
+    sol = np.linalg.solve(S, np.concatenate((PCt.T, r[:, None]), axis=1))
+    K = sol[:, :-1].T
+    # x_{t|t} = x_{t|t-1} + K r
+    x = x + K @ r
+    # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
+    IKC = eye_n - K @ C
+    P = IKC @ P @ IKC.T + K @ R @ K.T
+    P = 0.5 * (P + P.T)
+    # log N(r; 0, S) = -(r^T S^{-1} r + log det S + m log 2 pi) / 2,  log det S = 2 sum log L_ii
+    loglik = -0.5 * (r @ sol[:, -1] + 2.0 * np.log(L.diagonal()).sum() + m * LOG_2PI)
+    return x, P, K, r, S, float(loglik)
+
+
+# --------------------------------------------------------------------------
+# One step
+# --------------------------------------------------------------------------
+
+def predict(x, P, A, Q, G=None, B=None, u=None) -> Prediction:
+    r"""Prediction (dynamic update) of seed 000, section 2.
+
+    .. math::
+
+        \hat x_{t+1|t} = A \hat x_{t|t} + B u_t, \qquad
+        P_{t+1|t} = A P_{t|t} A^T + G Q G^T.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Filtered mean :math:`\hat x_{t|t}`.
+    P : array_like, shape (n, n)
+        Filtered covariance :math:`P_{t|t}`, symmetric PSD.
+    A : array_like, shape (n, n)
+        Transition matrix (filterpy ``F``).
+    Q : array_like, shape (q, q)
+        Process-noise covariance, symmetric PSD.
+    G : array_like, shape (n, q), optional
+        Noise gain; identity if omitted (then q = n). filterpy's ``Q`` is
+        :math:`G Q G^T`.
+    B : array_like, shape (n, p), optional
+        Control matrix; needed if ``u`` is given.
+    u : array_like, shape (p,), optional
+        Known input acting from t to t + 1.
+
+    Returns
+    -------
+    Prediction
+        ``mean`` (n,) and ``cov`` (n, n) (symmetrised).
+    """
+    x = as_vector("x", x)
+    n = x.shape[0]
+    P = as_covariance("P", P, n)
+    A = as_square("A", A, n)
+    Q = as_covariance("Q", Q)
+    if G is None:
+        if Q.shape[0] != n:
+            raise ValueError(f"Q must have shape ({n}, {n}) when G is omitted (G = I), "
+                             f"got shape {Q.shape}")
+        GQGt = Q
+    else:
+        G = as_matrix("G", G, (n, Q.shape[0]))
+        GQGt = G @ Q @ G.T
+    Bu = None
+    if u is not None:
+        if B is None:
+            raise ValueError("u was given but B (the control matrix) is None")
+        B = as_matrix("B", B, (n, None))
+        Bu = B @ as_vector("u", u, B.shape[1])
+    elif B is not None:
+        as_matrix("B", B, (n, None))
+    mean, cov = _predict(x, P, A, GQGt, Bu)
+    return Prediction(mean, cov)
+
+
+def update(x, P, y, C, R) -> Update:
+    r"""Measurement update of seed 000, section 2, with the Joseph-form covariance.
+
+    .. math::
+
+        r = y - C \hat x, \quad S = C P C^T + R, \quad K = P C^T S^{-1},
+
+        \hat x^+ = \hat x + K r, \qquad
+        P^+ = (I - K C) P (I - K C)^T + K R K^T.
+
+    Why not the seed's :math:`P^+ = P - K C P`? In exact arithmetic the two
+    agree (for the optimal K). But :math:`P - KCP` is a *difference* of two
+    positive semi-definite matrices: when the measurement is precise the two
+    nearly cancel and rounding can leave a result that is asymmetric or has
+    a negative eigenvalue, after which the filter diverges. The Joseph form
+    is a *sum* of two PSD terms, so it stays PSD, and it is the correct
+    covariance for *any* gain K, not only the optimal one (so it also
+    tolerates small errors in K). filterpy uses it too.
+
+    S is factorised by Cholesky (which also checks it is positive definite)
+    and the gain is obtained by solving :math:`S K^T = C P`, never by
+    inverting S.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Predicted mean :math:`\hat x_{t|t-1}`.
+    P : array_like, shape (n, n)
+        Predicted covariance :math:`P_{t|t-1}`, symmetric PSD.
+    y : array_like, shape (m,)
+        Measurement (finite).
+    C : array_like, shape (m, n)
+        Measurement matrix (filterpy ``H``).
+    R : array_like, shape (m, m)
+        Measurement-noise covariance, symmetric PSD.
+
+    Returns
+    -------
+    Update
+        ``mean`` (n,), ``cov`` (n, n), ``gain`` (n, m), ``innovation`` (m,),
+        ``innovation_cov`` (m, m) and ``loglik`` :math:`\log N(r; 0, S)`,
+        the log-density of this measurement given the past ones.
+
+    Raises
+    ------
+    ValueError
+        On wrong shapes or non-finite entries, or if S is not positive
+        definite.
+    """
+    x = as_vector("x", x)
+    n = x.shape[0]
+    P = as_covariance("P", P, n)
+    C = as_matrix("C", C, (None, n))
+    m = C.shape[0]
+    y = as_vector("y", y, m)
+    R = as_covariance("R", R, m)
+    return Update(*_update(x, P, y, C, R, np.eye(n)))
+
+
+# --------------------------------------------------------------------------
+# Whole runs
+# --------------------------------------------------------------------------
+
+def _check_model(model) -> None:
+    if not isinstance(model, LinearGaussian):
+        raise TypeError(f"model must be a bayesfilt.models.LinearGaussian, got "
+                        f"{type(model).__name__} (use bf.ekf for a NonlinearGaussian)")
+
+
+def _check_observations(ys: np.ndarray, axis_names: str) -> np.ndarray:
+    """Return the ``observed`` mask; ValueError for partly-missing rows or inf."""
+    nan = np.isnan(ys)
+    missing = nan.all(axis=-1)
+    partly = nan.any(axis=-1) & ~missing
+    if partly.any():
+        where = tuple(int(i) for i in np.argwhere(partly)[0])
+        raise ValueError(f"ys row {where if len(where) > 1 else where[0]} ({axis_names}) is "
+                         "partly NaN: a missing measurement must be an all-NaN row")
+    if np.isinf(ys).any():
+        where = tuple(int(i) for i in np.argwhere(np.isinf(ys))[0])
+        raise ValueError(f"ys must be finite or NaN (missing), got inf at index {where}")
+    return ~missing
+
+
+def _check_inputs(model: LinearGaussian, us, T: int, batch: int | None):
+    """Return B u_t for t = 0..T-2 as (T-1, n) or (M, T-1, n), or None."""
+    if us is None:
+        return None
+    if model.B is None:
+        raise ValueError("us was given but the model has no control matrix B")
+    p = model.control_dim
+    a = as_array("us", us)
+    if batch is not None and a.ndim == 3:
+        if a.shape[0] != batch or a.shape[2] != p:
+            raise ValueError(f"us must have shape (T - 1, {p}) shared by all sequences or "
+                             f"({batch}, T - 1, {p}), got shape {a.shape}")
+    elif a.ndim != 2 or a.shape[1] != p:
+        want = f"(T - 1, {p})" + ("" if batch is None else f" or ({batch}, T - 1, {p})")
+        raise ValueError(f"us must have shape {want}, got shape {a.shape}")
+    rows = a.shape[-2]
+    if rows not in (T - 1, T):
+        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {rows}")
+    a = a[..., : T - 1, :]
+    return a @ model.B.T
+
+
+def _as_ys(ys, m: int, batched: bool) -> np.ndarray:
+    a = as_array("ys", ys, finite=False)
+    if batched:
+        if a.ndim == 2 and m == 1:
+            a = a[..., None]
+        if a.ndim != 3 or a.shape[2] != m:
+            raise ValueError(f"ys must have shape (M, T, {m}), got shape {a.shape}")
+        if a.shape[0] < 1 or a.shape[1] < 1:
+            raise ValueError(f"ys needs M >= 1 sequences and T >= 1 steps, got shape {a.shape}")
+    else:
+        if a.ndim == 1 and m == 1:
+            a = a[:, None]
+        if a.ndim != 2 or a.shape[1] != m:
+            raise ValueError(f"ys must have shape (T, {m}), got shape {a.shape}")
+        if a.shape[0] < 1:
+            raise ValueError("ys must have at least one row (T >= 1)")
+    return a
+
+
+def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
+    r"""Run the Kalman filter of seed 000 over a whole sequence of measurements.
+
+    For t = 0, ..., T-1: predict from t-1 to t (skipped at t = 0, where the
+    prediction is the prior :math:`N(m_0, P_0)`), then update with
+    ``ys[t]`` unless that row is missing (all NaN), in which case the
+    filtered belief equals the prediction.
+
+    Parameters
+    ----------
+    model : bayesfilt.models.LinearGaussian
+    ys : array_like, shape (T, m)
+        Measurements; ``ys[0]`` measures :math:`x_0`. An all-NaN row is a
+        missing measurement. (A 1-D array is accepted when m = 1.)
+    us : array_like, shape (T - 1, p), optional
+        Known inputs, row t acting from t to t + 1 (needs ``model.B``); T
+        rows are accepted and the last is unused.
+
+    Returns
+    -------
+    FilterResult
+        See :class:`FilterResult`; ``loglik`` is
+        :math:`\log p(y_{\text{observed}})`, the sum of the per-step
+        :math:`\log N(r_t; 0, S_t)` over the observed rows.
+
+    Raises
+    ------
+    TypeError
+        If ``model`` is not a :class:`~bayesfilt.models.LinearGaussian`.
+    ValueError
+        On wrong shapes, a partly-NaN row of ``ys`` (named), an inf, ``us``
+        without ``model.B`` or with the wrong number of rows, or an
+        innovation covariance that is not positive definite.
+    """
+    _check_model(model)
+    n, m = model.state_dim, model.obs_dim
+    ys = _as_ys(ys, m, batched=False)
+    T = ys.shape[0]
+    observed = _check_observations(ys, "time step")
+    Bus = _check_inputs(model, us, T, None)
+    A, C, R = model.A, model.C, model.R
+    GQGt = model.G @ model.Q @ model.G.T
+    eye_n = np.eye(n)
+
+    means = np.empty((T, n))
+    covs = np.empty((T, n, n))
+    pred_means = np.empty((T, n))
+    pred_covs = np.empty((T, n, n))
+    innovations = np.full((T, m), np.nan)
+    innovation_covs = np.full((T, m, m), np.nan)
+    gains = np.zeros((T, n, m))
+    step_logliks = np.zeros(T)
+
+    x, P = model.m0, model.P0
+    for t in range(T):
+        if t > 0:
+            x, P = _predict(x, P, A, GQGt, None if Bus is None else Bus[t - 1])
+        pred_means[t] = x
+        pred_covs[t] = P
+        if observed[t]:
+            x, P, K, r, S, ll = _update(x, P, ys[t], C, R, eye_n)
+            gains[t] = K
+            innovations[t] = r
+            innovation_covs[t] = S
+            step_logliks[t] = ll
+        means[t] = x
+        covs[t] = P
+    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
+                        gains, step_logliks, float(step_logliks.sum()), observed)
+
+
+def _covariance_pass(model, observed: np.ndarray, GQGt: np.ndarray):
+    """The data-independent part of the filter for one missing-data pattern."""
+    n, m = model.state_dim, model.obs_dim
+    T = observed.shape[0]
+    A, C, R = model.A, model.C, model.R
+    eye_n = np.eye(n)
+    covs = np.empty((T, n, n))
+    pred_covs = np.empty((T, n, n))
+    S_all = np.full((T, m, m), np.nan)
+    gains = np.zeros((T, n, m))
+    log_dets = np.zeros(T)
+    S_chol = np.zeros((T, m, m))
+    P = model.P0
+    for t in range(T):
+        if t > 0:
+            # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
+            P = A @ P @ A.T + GQGt
+            P = 0.5 * (P + P.T)
+        pred_covs[t] = P
+        if observed[t]:
+            PCt = P @ C.T
+            # S = C P C^T + R
+            S = C @ PCt + R
+            try:
+                L = np.linalg.cholesky(S)
+            except np.linalg.LinAlgError:
+                raise ValueError("innovation covariance S = C P C^T + R is not positive "
+                                 f"definite at time step {t}") from None
+            # K = P C^T S^{-1}  (solve S K^T = C P)
+            K = np.linalg.solve(S, PCt.T).T
+            IKC = eye_n - K @ C
+            # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T
+            P = IKC @ P @ IKC.T + K @ R @ K.T
+            P = 0.5 * (P + P.T)
+            S_all[t] = S
+            S_chol[t] = L
+            gains[t] = K
+            log_dets[t] = 2.0 * np.log(L.diagonal()).sum()
+        covs[t] = P
+    return covs, pred_covs, S_all, S_chol, gains, log_dets
+
+
+def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
+    r"""Kalman filter on M measurement sequences of the same model at once.
+
+    The covariances, gains and innovation covariances of a Kalman filter do
+    not depend on the measured *values*, only on which rows are missing. So
+    they are computed once for every distinct missing-data pattern, and only
+    the means are propagated for all M sequences together, each step a
+    couple of (M, n) matrix products. This is what makes many Monte Carlo
+    runs cheap (NEES/NIS consistency checks, chapter 03). The result equals
+    M calls of :func:`kalman_filter` to rounding.
+
+    Parameters
+    ----------
+    model : bayesfilt.models.LinearGaussian
+    ys : array_like, shape (M, T, m)
+        M sequences of T measurements; all-NaN rows are missing.
+    us : array_like, shape (T - 1, p) or (M, T - 1, p), optional
+        Known inputs, shared by all sequences or one row set per sequence
+        (needs ``model.B``; T rows accepted, the last unused).
+
+    Returns
+    -------
+    FilterResult
+        Every field with a leading axis M: ``means`` (M, T, n), ``covs``
+        (M, T, n, n), ..., ``loglik`` (M,), ``observed`` (M, T).
+    """
+    _check_model(model)
+    n, m = model.state_dim, model.obs_dim
+    ys = _as_ys(ys, m, batched=True)
+    M, T = ys.shape[:2]
+    observed = _check_observations(ys, "sequence, time step")
+    Bus = _check_inputs(model, us, T, M)
+    A, C = model.A, model.C
+    GQGt = model.G @ model.Q @ model.G.T
+
+    means = np.empty((M, T, n))
+    covs = np.empty((M, T, n, n))
+    pred_means = np.empty((M, T, n))
+    pred_covs = np.empty((M, T, n, n))
+    innovations = np.full((M, T, m), np.nan)
+    innovation_covs = np.empty((M, T, m, m))
+    gains = np.empty((M, T, n, m))
+    step_logliks = np.zeros((M, T))
+
+    patterns, which = np.unique(observed, axis=0, return_inverse=True)
+    which = np.asarray(which).reshape(M)
+    for k, pattern in enumerate(patterns):
+        idx = np.flatnonzero(which == k)
+        covs_k, pred_covs_k, S_k, L_k, gains_k, log_dets_k = _covariance_pass(model, pattern, GQGt)
+        covs[idx] = covs_k
+        pred_covs[idx] = pred_covs_k
+        innovation_covs[idx] = S_k
+        gains[idx] = gains_k
+        y_k = ys[idx]
+        x = np.broadcast_to(model.m0, (idx.size, n))
+        for t in range(T):
+            if t > 0:
+                # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}   (rows are sequences: X A^T)
+                x = x @ A.T
+                if Bus is not None:
+                    x = x + (Bus[t - 1] if Bus.ndim == 2 else Bus[idx, t - 1])
+            pred_means[idx, t] = x
+            if pattern[t]:
+                # r = y - C x
+                r = y_k[:, t] - x @ C.T
+                # x_{t|t} = x_{t|t-1} + K r
+                x = x + r @ gains_k[t].T
+                # r^T S^{-1} r = |L^{-1} r|^2
+                z = sla.solve_triangular(L_k[t], r.T, lower=True, check_finite=False)
+                step_logliks[idx, t] = -0.5 * (np.sum(z * z, axis=0) + log_dets_k[t]
+                                              + m * LOG_2PI)
+                innovations[idx, t] = r
+            means[idx, t] = x
+    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
+                        gains, step_logliks, step_logliks.sum(axis=1), observed)
+
+
+# --------------------------------------------------------------------------
+# Steady state
+# --------------------------------------------------------------------------
+
+def steady_state(model: LinearGaussian) -> SteadyState:
+    r"""Steady-state covariances and gain of the Kalman filter of a time-invariant model.
+
+    The predicted covariance :math:`P = P_{t+1|t}` converges (whatever
+    :math:`P_0`) to the stabilising solution of the discrete algebraic
+    Riccati equation
+
+    .. math::
+
+        P = A P A^T - A P C^T (C P C^T + R)^{-1} C P A^T + G Q G^T,
+
+    provided :math:`(A, C)` is detectable and :math:`(A, G Q^{1/2})` has no
+    uncontrollable mode on the unit circle. It is solved with
+    ``scipy.linalg.solve_discrete_are(A.T, C.T, G Q G^T, R)`` (the filter's
+    Riccati equation is the control one for the transposed system). Then
+    :math:`K = P C^T (C P C^T + R)^{-1}` and the filtered covariance is
+    :math:`(I - KC) P (I - KC)^T + K R K^T`.
+
+    Parameters
+    ----------
+    model : bayesfilt.models.LinearGaussian
+        R must be positive definite. ``m0``, ``P0`` and ``B`` play no role.
+
+    Returns
+    -------
+    SteadyState
+        ``pred_cov`` (n, n), ``cov`` (n, n), ``gain`` (n, m).
+
+    Raises
+    ------
+    ValueError
+        If the Riccati equation has no stabilising solution (e.g. an unstable
+        mode of A that C does not see), or R is singular.
+    """
+    _check_model(model)
+    A, C, R = model.A, model.C, model.R
+    n = model.state_dim
+    GQGt = model.G @ model.Q @ model.G.T
+    as_covariance("R", R, definite=True)
+    try:
+        P = sla.solve_discrete_are(A.T, C.T, GQGt, R)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise ValueError("the filter's Riccati equation has no stabilising solution for this "
+                         "model: (A, C) must be detectable and (A, G Q^{1/2}) must have no "
+                         f"uncontrollable mode on the unit circle ({exc})") from None
+    if not np.all(np.isfinite(P)):
+        raise ValueError("the filter's Riccati equation has no stabilising solution for this "
+                         "model (solve_discrete_are returned non-finite values)")
+    P = 0.5 * (P + P.T)
+    S = C @ P @ C.T + R
+    # K = P C^T S^{-1}
+    K = np.linalg.solve(S, C @ P).T
+    # The solution must make the error dynamics A (I - K C) stable.
+    rho = float(np.max(np.abs(np.linalg.eigvals(A @ (np.eye(n) - K @ C)))))
+    if rho >= 1.0:
+        raise ValueError("the filter's Riccati equation has no stabilising solution for this "
+                         f"model: the error dynamics A (I - K C) have spectral radius {rho:.6g} "
+                         ">= 1; (A, C) must be detectable")
+    IKC = np.eye(n) - K @ C
+    cov = IKC @ P @ IKC.T + K @ R @ K.T
+    return SteadyState(P, 0.5 * (cov + cov.T), K)
