@@ -1,0 +1,27 @@
+# Convenience targets; each builds the virtual environment first if needed.
+#   make lab        read and run the course in JupyterLab
+#   make test       unit tests + every notebook under strict nbval
+#   make notebooks  re-execute and save every notebook (after an edit)
+#   make bench      benchmarks against filterpy
+VENV ?= .venv
+PYTHON ?= python3
+BIN := $(VENV)/bin
+
+$(BIN)/.installed: requirements.txt pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --upgrade pip
+	$(BIN)/pip install -r requirements.txt
+	touch $@
+
+.PHONY: lab test notebooks bench
+lab: $(BIN)/.installed
+	$(BIN)/jupyter lab notebooks/
+
+test: $(BIN)/.installed
+	$(BIN)/pytest
+
+notebooks: $(BIN)/.installed
+	$(BIN)/python tools/run_notebooks.py
+
+bench: $(BIN)/.installed
+	$(BIN)/python benchmarks/bench_kalman.py
