@@ -64,6 +64,11 @@ def _call(where: str, name: str, fun, x: np.ndarray, shape: tuple[int, ...]) -> 
     return out
 
 
+def _require_finite(where: str, what: str, a: np.ndarray) -> None:
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{where}: the {what} overflowed to a non-finite value")
+
+
 def _as_noise_gain(where: str, G, n: int, q: int) -> np.ndarray:
     if G is None:
         if q != n:
@@ -128,12 +133,20 @@ def predict(x, P, f, F, Q, G=None) -> Prediction:
     check_callable("F", F)
     Q = as_covariance("Q", Q)
     G = _as_noise_gain("ekf.predict", G, n, Q.shape[0])
+    return _predict(x, P, f, F, G @ Q @ G.T)
+
+
+def _predict(x, P, f, F, GQGt) -> Prediction:
+    """:func:`predict` without the argument checks (the filter checks once)."""
+    n = x.shape[0]
     # The Jacobian is taken at the filtered mean, before it moves (Kay's A[n-1]).
     Fx = _call("ekf.predict", "Jacobian F", F, x, (n, n))
     # x_{t+1|t} = f(x_{t|t}): the mean goes through the nonlinear function itself.
     x_pred = _call("ekf.predict", "f", f, x, (n,))
     # P_{t+1|t} = F P F^T + G Q G^T
-    P_pred = Fx @ P @ Fx.T + G @ Q @ G.T
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        P_pred = Fx @ P @ Fx.T + GQGt
+    _require_finite("ekf.predict", "predicted covariance F P F^T + G Q G^T", P_pred)
     return Prediction(x_pred, P_pred)
 
 
@@ -202,23 +215,35 @@ def update(x, P, y, h, H, R, residual=None) -> Update:
     y = as_vector("y", y, m)
     check_callable("h", h)
     check_callable("H", H)
+    if residual is not None:
+        check_callable("residual", residual)
+    return _update(x, P, y, h, H, R, residual)
+
+
+def _update(x, P, y, h, H, R, residual) -> Update:
+    """:func:`update` without the argument checks (the filter checks once)."""
+    n, m = x.shape[0], y.shape[0]
     Hx = _call("ekf.update", "Jacobian H", H, x, (m, n))
     y_pred = _call("ekf.update", "h", h, x, (m,))
     if residual is None:
         innovation = y - y_pred
     else:
-        check_callable("residual", residual)
         innovation = _call("ekf.update", "residual",
                            lambda _: residual(y.copy(), y_pred.copy()), x, (m,))
     # S = H P H^T + R
-    S = Hx @ P @ Hx.T + R
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        S = Hx @ P @ Hx.T + R
+    _require_finite("ekf.update", "innovation covariance S = H P H^T + R", S)
     S = 0.5 * (S + S.T)
-    eig = np.linalg.eigvalsh(S)
-    if not eig[0] > m * np.finfo(float).eps * max(eig[-1], np.finfo(float).tiny):
-        raise ValueError(f"ekf.update: innovation covariance S = H P H^T + R is singular "
-                         f"(eigenvalues {eig[0]:.3g} .. {eig[-1]:.3g}); give R a positive "
-                         f"variance on every measurement component")
-    chol = np.linalg.cholesky(S)
+    try:
+        chol = np.linalg.cholesky(S)
+        singular = np.diag(chol).min() ** 2 <= m * np.finfo(float).eps * np.diag(S).max()
+    except np.linalg.LinAlgError:
+        singular = True
+    if singular:
+        raise ValueError("ekf.update: innovation covariance S = H P H^T + R is singular (not "
+                         "positive definite); give R a positive variance on every "
+                         "measurement component")
     # K = P H^T S^{-1}, by two triangular solves instead of an inverse
     PHt = P @ Hx.T
     K = np.linalg.solve(chol.T, np.linalg.solve(chol, PHt.T)).T
@@ -227,6 +252,7 @@ def update(x, P, y, h, H, R, residual=None) -> Update:
     # P_{t|t} = (I - K H) P (I - K H)^T + K R K^T   (Joseph form)
     I_KH = np.eye(n) - K @ Hx
     P_new = I_KH @ P @ I_KH.T + K @ R @ K.T
+    _require_finite("ekf.update", "updated covariance", P_new)
     # log N(e; 0, S) = -1/2 (e^T S^{-1} e + log det S + m log 2 pi)
     z = np.linalg.solve(chol, innovation)
     loglik = -0.5 * (z @ z + 2.0 * np.sum(np.log(np.diag(chol))) + m * LOG_2PI)
@@ -294,14 +320,17 @@ def extended_kalman_filter(model, ys) -> FilterResult:
     pred_means, pred_covs = np.empty((T, n)), np.empty((T, n, n))
     innovations, innovation_covs = np.full((T, m), np.nan), np.full((T, m, m), np.nan)
     gains, step_logliks = np.zeros((T, n, m)), np.zeros(T)
+    # The model checked its matrices on construction; the loop only checks what
+    # the user functions return.
+    GQGt = model.G @ model.Q @ model.G.T
     x, P = model.m0.copy(), model.P0.copy()
     for t in range(T):
         try:
             if t > 0:
-                x, P = predict(x, P, model.f, model.F, model.Q, model.G)
+                x, P = _predict(x, P, model.f, model.F, GQGt)
             pred_means[t], pred_covs[t] = x, P
             if observed[t]:
-                up = update(x, P, ys[t], model.h, model.H, model.R, residual=model.residual)
+                up = _update(x, P, ys[t], model.h, model.H, model.R, model.residual)
                 x, P = up.mean, up.cov
                 innovations[t], innovation_covs[t] = up.innovation, up.innovation_cov
                 gains[t], step_logliks[t] = up.gain, up.loglik

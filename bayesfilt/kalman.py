@@ -364,13 +364,132 @@ def _as_ys(ys, m: int, batched: bool) -> np.ndarray:
     return a
 
 
+class _CovariancePass(NamedTuple):
+    """The data-independent half of a filter run over one missing-data pattern.
+
+    Every distinct covariance is stored once in ``mats`` (D, n, n) and the
+    steps index it: ``pred_idx[t]`` -> P_{t|t-1}, ``post_idx[t]`` -> P_{t|t}.
+    ``upd_idx[t]`` (-1 where missing) indexes the per-update arrays ``gains``
+    (U, n, m), ``S`` (U, m, m), ``chol_inv`` (U, m, m) = L^{-1} with
+    S = L L^T, and ``log_dets`` (U,) = log det S.
+    """
+
+    mats: np.ndarray
+    pred_idx: np.ndarray
+    post_idx: np.ndarray
+    upd_idx: np.ndarray
+    gains: np.ndarray
+    S: np.ndarray
+    chol_inv: np.ndarray
+    log_dets: np.ndarray
+
+
+def _covariance_pass(A, C, R, GQGt, P0, observed) -> _CovariancePass:
+    """Run the covariance recursion (predict, Joseph update) for one missing-data pattern.
+
+    For a time-invariant model the recursion reaches a floating-point fixed
+    point after a few dozen to a few hundred steps (the Riccati map is a
+    contraction): the predicted covariance comes out bit-for-bit equal to
+    the previous one. From then on every step would recompute exactly the
+    same numbers, so they are reused instead. This is exact, not an
+    approximation: a step is reused only when its input is bitwise identical
+    to the input of the step it copies.
+    """
+    n, m, T = A.shape[0], C.shape[0], observed.shape[0]
+    eye_n = np.eye(n)
+    mats = [P0]
+    gains, Ss, chols = [], [], []
+    pred_idx = np.empty(T, dtype=np.intp)
+    post_idx = np.empty(T, dtype=np.intp)
+    upd_idx = np.full(T, -1, dtype=np.intp)
+    P, i = P0, 0
+    last_pred = None  # (P_{t-1|t-1} it was computed from, index of the P_{t|t-1} it gave)
+    last_upd = None   # (P_{t|t-1} it was computed from, update index, index of P_{t|t})
+    for t in range(T):
+        if t > 0:
+            if last_pred is not None and P is last_pred[0]:
+                i = last_pred[1]
+                P = mats[i]
+            else:
+                P_post = P
+                # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
+                P = A @ P @ A.T + GQGt
+                P = 0.5 * (P + P.T)
+                mats.append(P)
+                i = len(mats) - 1
+                last_pred = (P_post, i)
+        pred_idx[t] = i
+        if observed[t]:
+            if last_upd is not None and (P is last_upd[0] or (P == last_upd[0]).all()):
+                u, i = last_upd[1], last_upd[2]
+                last_upd = (P, u, i)
+                P = mats[i]
+            else:
+                P_pred = P
+                PCt = P @ C.T
+                # S = C P C^T + R
+                S = C @ PCt + R
+                try:
+                    L = np.linalg.cholesky(S)
+                except np.linalg.LinAlgError:
+                    raise ValueError("innovation covariance S = C P C^T + R is not positive "
+                                     f"definite at time step {t}") from None
+                # K = P C^T S^{-1}: solve S K^T = C P (no inverse)
+                K = np.linalg.solve(S, PCt.T).T
+                IKC = eye_n - K @ C
+                # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
+                P = IKC @ P @ IKC.T + K @ R @ K.T
+                P = 0.5 * (P + P.T)
+                gains.append(K)
+                Ss.append(S)
+                chols.append(L)
+                mats.append(P)
+                u, i = len(gains) - 1, len(mats) - 1
+                last_upd = (P_pred, u, i)
+            upd_idx[t] = u
+        post_idx[t] = i
+    n_upd = len(gains)
+    if n_upd:
+        Ls = np.stack(chols)
+        # L^{-1} from triangular systems L X = I, once per distinct S, so that
+        # r^T S^{-1} r = |L^{-1} r|^2 vectorises over steps and sequences.
+        chol_inv = np.linalg.solve(Ls, np.broadcast_to(np.eye(m), Ls.shape))
+        # log det S = 2 sum_i log L_ii
+        log_dets = 2.0 * np.log(np.diagonal(Ls, axis1=1, axis2=2)).sum(axis=1)
+        gains_a, S_a = np.stack(gains), np.stack(Ss)
+    else:
+        chol_inv = S_a = np.empty((0, m, m))
+        gains_a = np.empty((0, n, m))
+        log_dets = np.empty(0)
+    return _CovariancePass(np.stack(mats), pred_idx, post_idx, upd_idx, gains_a, S_a,
+                           chol_inv, log_dets)
+
+
+def _step_logliks(cp: _CovariancePass, observed, innovations) -> np.ndarray:
+    """log N(r_t; 0, S_t) for the observed steps; innovations (..., T, m) -> (..., T)."""
+    m = innovations.shape[-1]
+    out = np.zeros(innovations.shape[:-1])
+    u = cp.upd_idx[observed]
+    # z = L^{-1} r, so that r^T S^{-1} r = z^T z
+    z = np.einsum("tij,...tj->...ti", cp.chol_inv[u], innovations[..., observed, :])
+    # log N(r; 0, S) = -(r^T S^{-1} r + log det S + m log 2 pi) / 2
+    out[..., observed] = -0.5 * (np.sum(z * z, axis=-1) + cp.log_dets[u] + m * LOG_2PI)
+    return out
+
+
 def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     r"""Run the Kalman filter of seed 000 over a whole sequence of measurements.
 
     For t = 0, ..., T-1: predict from t-1 to t (skipped at t = 0, where the
     prediction is the prior :math:`N(m_0, P_0)`), then update with
-    ``ys[t]`` unless that row is missing (all NaN), in which case the
-    filtered belief equals the prediction.
+    ``ys[t]`` (as :func:`predict` and :func:`update` do) unless that row is
+    missing (all NaN), in which case the filtered belief is the prediction.
+
+    The arguments are validated once; the loop then runs unchecked kernels.
+    The covariances do not depend on the measured values, so they are
+    computed first, reusing steps once the recursion has reached its
+    floating-point fixed point (exactly, see the source), and only the means
+    are run through the measurements.
 
     Parameters
     ----------
@@ -404,77 +523,42 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     T = ys.shape[0]
     observed = _check_observations(ys, "time step")
     Bus = _check_inputs(model, us, T, None)
-    A, C, R = model.A, model.C, model.R
+    A, C = model.A, model.C
     GQGt = model.G @ model.Q @ model.G.T
-    eye_n = np.eye(n)
+    cp = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
+
+    covs = cp.mats[cp.post_idx]
+    pred_covs = cp.mats[cp.pred_idx]
+    gains = np.zeros((T, n, m))
+    gains[observed] = cp.gains[cp.upd_idx[observed]]
+    innovation_covs = np.full((T, m, m), np.nan)
+    innovation_covs[observed] = cp.S[cp.upd_idx[observed]]
 
     means = np.empty((T, n))
-    covs = np.empty((T, n, n))
     pred_means = np.empty((T, n))
-    pred_covs = np.empty((T, n, n))
-    innovations = np.full((T, m), np.nan)
-    innovation_covs = np.full((T, m, m), np.nan)
-    gains = np.zeros((T, n, m))
-    step_logliks = np.zeros(T)
-
-    x, P = model.m0, model.P0
+    obs_list = observed.tolist()
+    x = model.m0
     for t in range(T):
         if t > 0:
-            x, P = _predict(x, P, A, GQGt, None if Bus is None else Bus[t - 1])
+            # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}
+            x = A @ x
+            if Bus is not None:
+                x = x + Bus[t - 1]
         pred_means[t] = x
-        pred_covs[t] = P
-        if observed[t]:
-            x, P, K, r, S, ll = _update(x, P, ys[t], C, R, eye_n)
-            gains[t] = K
-            innovations[t] = r
-            innovation_covs[t] = S
-            step_logliks[t] = ll
+        if obs_list[t]:
+            # x_{t|t} = x_{t|t-1} + K_t (y_t - C x_{t|t-1})
+            x = x + gains[t] @ (ys[t] - C @ x)
         means[t] = x
-        covs[t] = P
+    # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
+    innovations = ys - pred_means @ C.T
+    step_logliks = _step_logliks(cp, observed, innovations)
     return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
                         gains, step_logliks, float(step_logliks.sum()), observed)
 
 
-def _covariance_pass(model, observed: np.ndarray, GQGt: np.ndarray):
-    """The data-independent part of the filter for one missing-data pattern."""
-    n, m = model.state_dim, model.obs_dim
-    T = observed.shape[0]
-    A, C, R = model.A, model.C, model.R
-    eye_n = np.eye(n)
-    covs = np.empty((T, n, n))
-    pred_covs = np.empty((T, n, n))
-    S_all = np.full((T, m, m), np.nan)
-    gains = np.zeros((T, n, m))
-    log_dets = np.zeros(T)
-    S_chol = np.zeros((T, m, m))
-    P = model.P0
-    for t in range(T):
-        if t > 0:
-            # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
-            P = A @ P @ A.T + GQGt
-            P = 0.5 * (P + P.T)
-        pred_covs[t] = P
-        if observed[t]:
-            PCt = P @ C.T
-            # S = C P C^T + R
-            S = C @ PCt + R
-            try:
-                L = np.linalg.cholesky(S)
-            except np.linalg.LinAlgError:
-                raise ValueError("innovation covariance S = C P C^T + R is not positive "
-                                 f"definite at time step {t}") from None
-            # K = P C^T S^{-1}  (solve S K^T = C P)
-            K = np.linalg.solve(S, PCt.T).T
-            IKC = eye_n - K @ C
-            # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T
-            P = IKC @ P @ IKC.T + K @ R @ K.T
-            P = 0.5 * (P + P.T)
-            S_all[t] = S
-            S_chol[t] = L
-            gains[t] = K
-            log_dets[t] = 2.0 * np.log(L.diagonal()).sum()
-        covs[t] = P
-    return covs, pred_covs, S_all, S_chol, gains, log_dets
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
 
 
 def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
@@ -492,9 +576,10 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     ----------
     model : bayesfilt.models.LinearGaussian
     ys : array_like, shape (M, T, m)
-        M sequences of T measurements; all-NaN rows are missing.
+        M sequences of T measurements; all-NaN rows are missing. (An (M, T)
+        array is accepted when m = 1.)
     us : array_like, shape (T - 1, p) or (M, T - 1, p), optional
-        Known inputs, shared by all sequences or one row set per sequence
+        Known inputs, shared by all sequences or one set per sequence
         (needs ``model.B``; T rows accepted, the last unused).
 
     Returns
@@ -502,6 +587,10 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     FilterResult
         Every field with a leading axis M: ``means`` (M, T, n), ``covs``
         (M, T, n, n), ..., ``loglik`` (M,), ``observed`` (M, T).
+        ``covs``, ``pred_covs``, ``innovation_covs`` and ``gains`` are
+        read-only: sequences with the same missing-data pattern share them,
+        and when all do they are broadcast views that cost no memory (copy
+        them with ``np.array`` to modify).
     """
     _check_model(model)
     n, m = model.state_dim, model.obs_dim
@@ -510,46 +599,71 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     observed = _check_observations(ys, "sequence, time step")
     Bus = _check_inputs(model, us, T, M)
     A, C = model.A, model.C
+    At, Ct = A.T, C.T
     GQGt = model.G @ model.Q @ model.G.T
-
-    means = np.empty((M, T, n))
-    covs = np.empty((M, T, n, n))
-    pred_means = np.empty((M, T, n))
-    pred_covs = np.empty((M, T, n, n))
-    innovations = np.full((M, T, m), np.nan)
-    innovation_covs = np.empty((M, T, m, m))
-    gains = np.empty((M, T, n, m))
-    step_logliks = np.zeros((M, T))
 
     patterns, which = np.unique(observed, axis=0, return_inverse=True)
     which = np.asarray(which).reshape(M)
+    single = patterns.shape[0] == 1
+    if single:
+        covs = pred_covs = innovation_covs = gains = None
+    else:
+        covs = np.empty((M, T, n, n))
+        pred_covs = np.empty((M, T, n, n))
+        innovation_covs = np.empty((M, T, m, m))
+        gains = np.empty((M, T, n, m))
+    means = np.empty((M, T, n))
+    pred_means = np.empty((M, T, n))
+    step_logliks = np.empty((M, T))
+
     for k, pattern in enumerate(patterns):
-        idx = np.flatnonzero(which == k)
-        covs_k, pred_covs_k, S_k, L_k, gains_k, log_dets_k = _covariance_pass(model, pattern, GQGt)
-        covs[idx] = covs_k
-        pred_covs[idx] = pred_covs_k
-        innovation_covs[idx] = S_k
-        gains[idx] = gains_k
+        idx = slice(None) if single else np.flatnonzero(which == k)
+        cp = _covariance_pass(A, C, model.R, GQGt, model.P0, pattern)
+        covs_k = cp.mats[cp.post_idx]
+        pred_covs_k = cp.mats[cp.pred_idx]
+        gains_k = np.zeros((T, n, m))
+        gains_k[pattern] = cp.gains[cp.upd_idx[pattern]]
+        S_k = np.full((T, m, m), np.nan)
+        S_k[pattern] = cp.S[cp.upd_idx[pattern]]
+        gains_kt = np.swapaxes(gains_k, 1, 2).copy()
         y_k = ys[idx]
-        x = np.broadcast_to(model.m0, (idx.size, n))
+        Bu_k = None if Bus is None else (Bus if Bus.ndim == 2 else Bus[idx])
+        Mk = y_k.shape[0]
+        pm = np.empty((Mk, T, n))
+        mm = np.empty((Mk, T, n))
+        x = np.broadcast_to(model.m0, (Mk, n))
+        obs_list = pattern.tolist()
         for t in range(T):
             if t > 0:
                 # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}   (rows are sequences: X A^T)
-                x = x @ A.T
-                if Bus is not None:
-                    x = x + (Bus[t - 1] if Bus.ndim == 2 else Bus[idx, t - 1])
-            pred_means[idx, t] = x
-            if pattern[t]:
-                # r = y - C x
-                r = y_k[:, t] - x @ C.T
-                # x_{t|t} = x_{t|t-1} + K r
-                x = x + r @ gains_k[t].T
-                # r^T S^{-1} r = |L^{-1} r|^2
-                z = sla.solve_triangular(L_k[t], r.T, lower=True, check_finite=False)
-                step_logliks[idx, t] = -0.5 * (np.sum(z * z, axis=0) + log_dets_k[t]
-                                              + m * LOG_2PI)
-                innovations[idx, t] = r
-            means[idx, t] = x
+                x = x @ At
+                if Bu_k is not None:
+                    x = x + Bu_k[..., t - 1, :]
+            pm[:, t] = x
+            if obs_list[t]:
+                # x_{t|t} = x_{t|t-1} + K_t (y_t - C x_{t|t-1})
+                x = x + (y_k[:, t] - x @ Ct) @ gains_kt[t]
+            mm[:, t] = x
+        # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
+        innov_k = y_k - pm @ Ct
+        ll_k = _step_logliks(cp, pattern, innov_k)
+        if single:
+            means, pred_means, step_logliks, innovations = mm, pm, ll_k, innov_k
+            covs = np.broadcast_to(covs_k, (M, T, n, n))
+            pred_covs = np.broadcast_to(pred_covs_k, (M, T, n, n))
+            innovation_covs = np.broadcast_to(S_k, (M, T, m, m))
+            gains = np.broadcast_to(gains_k, (M, T, n, m))
+        else:
+            if k == 0:
+                innovations = np.empty((M, T, m))
+            means[idx], pred_means[idx], step_logliks[idx], innovations[idx] = mm, pm, ll_k, innov_k
+            covs[idx] = covs_k
+            pred_covs[idx] = pred_covs_k
+            innovation_covs[idx] = S_k
+            gains[idx] = gains_k
+    if not single:
+        for a in (covs, pred_covs, innovation_covs, gains):
+            _read_only(a)
     return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
                         gains, step_logliks, step_logliks.sum(axis=1), observed)
 

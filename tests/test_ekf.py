@@ -362,3 +362,10 @@ def test_numerical_jacobian_bad_inputs():
         bf.ekf.numerical_jacobian(lambda x: np.where(x > 0.5, x, np.nan), [0.0, 1.0])
     with pytest.raises(ValueError, match="fun must return a vector"):
         bf.ekf.numerical_jacobian(lambda x: np.outer(x, x), [1.0, 2.0])
+
+
+def test_overflow_is_reported_not_returned():
+    with pytest.raises(ValueError, match="ekf.predict: the predicted covariance"):
+        bf.ekf.predict(X, P, _ok, lambda x: 1e200 * np.eye(2), Q2)
+    with pytest.raises(ValueError, match="ekf.update: the innovation covariance"):
+        bf.ekf.update(X, P, [1.5], h1, lambda x: np.array([[1e200, 0.0]]), R1)
