@@ -146,6 +146,7 @@ def _predict(x, P, f, F, GQGt) -> Prediction:
     # P_{t+1|t} = F P F^T + G Q G^T
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         P_pred = Fx @ P @ Fx.T + GQGt
+    P_pred = 0.5 * (P_pred + P_pred.T)  # remove rounding asymmetry, as bf.kalman does
     _require_finite("ekf.predict", "predicted covariance F P F^T + G Q G^T", P_pred)
     return Prediction(x_pred, P_pred)
 
@@ -252,6 +253,7 @@ def _update(x, P, y, h, H, R, residual) -> Update:
     # P_{t|t} = (I - K H) P (I - K H)^T + K R K^T   (Joseph form)
     I_KH = np.eye(n) - K @ Hx
     P_new = I_KH @ P @ I_KH.T + K @ R @ K.T
+    P_new = 0.5 * (P_new + P_new.T)
     _require_finite("ekf.update", "updated covariance", P_new)
     # log N(e; 0, S) = -1/2 (e^T S^{-1} e + log det S + m log 2 pi)
     z = np.linalg.solve(chol, innovation)

@@ -22,11 +22,14 @@ tools the course needs around it. Import it as ``bf.gaussian``::
     xs = bf.gaussian.sample(np.random.default_rng(0), np.zeros(2),
                             [[1.0, 1.0], [1.0, 1.0]], size=1000)
 
-    # Consistency of a filter: NEES of estimation errors e_t (T, n) with
-    # covariances P_t (T, n, n), and the 95 % interval of its average over
-    # n_runs Monte Carlo runs
-    nees = bf.gaussian.squared_mahalanobis(errors, covs)        # (T,)
-    low, high = bf.gaussian.chi2_interval(dof=n, n_runs=50)
+    # Consistency of a filter: NEES of the estimation errors (T, n) with the
+    # filter's covariances (T, n, n), and the 95 % interval of one value
+    # (n_runs = 1) or of the average over n_runs Monte Carlo runs
+    model = bf.models.damped_particle()
+    xs, ys = bf.models.simulate(model, 100, np.random.default_rng(1))
+    res = bf.kalman.kalman_filter(model, ys)
+    nees = bf.gaussian.squared_mahalanobis(xs - res.means, res.covs)   # (100,)
+    low, high = bf.gaussian.chi2_interval(dof=4, n_runs=1)
 
 Conditioning (seed 000, Theorem 10.2, eqs. (10.24)-(10.25)). Kay states
 the theorem for :math:`y` given :math:`x`; the Kalman update needs it with
@@ -139,12 +142,12 @@ def condition(mean_x, mean_y, cov_xx, cov_xy, cov_yy, y) -> Gaussian:
     cov_xy = as_matrix("cov_xy", cov_xy, (k, l_))
     cov_yy = as_covariance("cov_yy", cov_yy, l_)
     y = as_vector("y", y, l_)
+    factor = (_cholesky("cov_yy", cov_yy), True)
     joint = np.block([[cov_xx, cov_xy], [cov_xy.T, cov_yy]])
     eig_min = float(np.linalg.eigvalsh(joint).min())
     if eig_min < -1e-9 * max(float(np.max(np.abs(joint))), 1e-300) * (k + l_):
         raise ValueError("cov_xy is inconsistent with cov_xx and cov_yy: the joint covariance "
                          f"[[cov_xx, cov_xy], [cov_xy^T, cov_yy]] has eigenvalue {eig_min:.3g} < 0")
-    factor = (_cholesky("cov_yy", cov_yy), True)
     # W = C_xy C_yy^{-1}, from C_yy W^T = C_yx (solve, do not invert)
     W = sla.cho_solve(factor, cov_xy.T, check_finite=False).T
     # E(x|y) = mu_x + C_xy C_yy^{-1} (y - mu_y)          (10.24)

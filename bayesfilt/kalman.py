@@ -26,22 +26,29 @@ Import it as ``bf.kalman``::
     model = bf.models.damped_particle()
     xs, ys = bf.models.simulate(model, 200, np.random.default_rng(0))
 
-    # one step at a time (unpacks like a tuple) ...
-    x, P = bf.kalman.predict(model.m0, model.P0, model.A, model.Q, G=model.G)
-    step = bf.kalman.update(x, P, ys[1], model.C, model.R)
+    # one step at a time: ys[0] measures x_0 ~ N(m0, P0) (seed 000's time convention)
+    step = bf.kalman.update(model.m0, model.P0, ys[0], model.C, model.R)
+    x, P = bf.kalman.predict(step.mean, step.cov, model.A, model.Q, G=model.G)
+    step = bf.kalman.update(x, P, ys[1], model.C, model.R)   # step.mean, step.loglik, ...
 
-    # ... or a whole run; ys[0] measures x_0 (seed 000's time convention)
+    # ... or a whole run
     res = bf.kalman.kalman_filter(model, ys)
     res.means, res.covs, res.loglik          # (T, n), (T, n, n), float
 
-    # many runs of the same model at once (M, T, m) -> every field gets an M axis
-    res_m = bf.kalman.batch_kalman_filter(model, ys_many)
+    # many runs of the same model at once: (M, T, m) -> every field gets an M axis
+    rng = np.random.default_rng(1)
+    ys_many = np.stack([bf.models.simulate(model, 200, rng).ys for _ in range(500)])
+    res_m = bf.kalman.batch_kalman_filter(model, ys_many)   # res_m.means (500, 200, 4)
 
     # the covariance and gain the filter settles to
     ss = bf.kalman.steady_state(model)       # pred_cov, cov, gain
 
 A row of ``ys`` that is entirely NaN is a missing measurement: the filter
 only predicts through it.
+
+Numerics. The covariance update uses the Joseph form (see :func:`update`),
+S is factorised by Cholesky and the gain is obtained by solving linear
+systems, never by inverting S; every covariance is symmetrised exactly.
 
 Time convention (seed 000): ``ys[0]`` measures :math:`x_0 \sim N(m_0, P_0)`,
 so ``pred_means[0] = m0``, ``pred_covs[0] = P0`` and ``means[t]`` is
@@ -252,11 +259,12 @@ def update(x, P, y, C, R) -> Update:
     Why not the seed's :math:`P^+ = P - K C P`? In exact arithmetic the two
     agree (for the optimal K). But :math:`P - KCP` is a *difference* of two
     positive semi-definite matrices: when the measurement is precise the two
-    nearly cancel and rounding can leave a result that is asymmetric or has
-    a negative eigenvalue, after which the filter diverges. The Joseph form
-    is a *sum* of two PSD terms, so it stays PSD, and it is the correct
-    covariance for *any* gain K, not only the optimal one (so it also
-    tolerates small errors in K). filterpy uses it too.
+    nearly cancel, and rounding can leave a result that is asymmetric or has
+    a negative eigenvalue, after which the filter can diverge. The Joseph
+    form is a *sum* of two PSD terms, so it cannot lose definiteness through
+    cancellation, and it is the correct covariance for *any* gain K, not only
+    the optimal one (so a small error in K costs only a second-order error
+    in P). filterpy uses it too. The result is also symmetrised exactly.
 
     S is factorised by Cholesky (which also checks it is positive definite)
     and the gain is obtained by solving :math:`S K^T = C P`, never by
@@ -310,9 +318,15 @@ def _check_model(model) -> None:
 
 def _check_observations(ys: np.ndarray, axis_names: str) -> np.ndarray:
     """Return the ``observed`` mask; ValueError for partly-missing rows or inf."""
+    if np.isfinite(ys).all():
+        return np.ones(ys.shape[:-1], dtype=bool)
     nan = np.isnan(ys)
-    missing = nan.all(axis=-1)
-    partly = nan.any(axis=-1) & ~missing
+    # all/any over the short last axis, one column at a time (faster than .all(-1))
+    missing, some = nan[..., 0].copy(), nan[..., 0].copy()
+    for j in range(1, ys.shape[-1]):
+        missing &= nan[..., j]
+        some |= nan[..., j]
+    partly = some & ~missing
     if partly.any():
         where = tuple(int(i) for i in np.argwhere(partly)[0])
         raise ValueError(f"ys row {where if len(where) > 1 else where[0]} ({axis_names}) is "
@@ -364,44 +378,57 @@ def _as_ys(ys, m: int, batched: bool) -> np.ndarray:
     return a
 
 
-class _CovariancePass(NamedTuple):
-    """The data-independent half of a filter run over one missing-data pattern.
+class _Covariances(NamedTuple):
+    """The data-independent half of a filter run, per time step.
 
-    Every distinct covariance is stored once in ``mats`` (D, n, n) and the
-    steps index it: ``pred_idx[t]`` -> P_{t|t-1}, ``post_idx[t]`` -> P_{t|t}.
-    ``upd_idx[t]`` (-1 where missing) indexes the per-update arrays ``gains``
-    (U, n, m), ``S`` (U, m, m), ``chol_inv`` (U, m, m) = L^{-1} with
-    S = L L^T, and ``log_dets`` (U,) = log det S.
+    Shapes for one missing-data pattern (a leading axis D for D patterns):
+    ``covs`` and ``pred_covs`` (T, n, n); ``S`` (T, m, m), NaN where missing;
+    ``gains`` (T, n, m), 0 where missing; ``chol_inv`` (T, m, m) = L^{-1}
+    with S = L L^T, 0 where missing; ``log_dets`` (T,) = log det S, 0 where
+    missing.
     """
 
-    mats: np.ndarray
-    pred_idx: np.ndarray
-    post_idx: np.ndarray
-    upd_idx: np.ndarray
-    gains: np.ndarray
+    covs: np.ndarray
+    pred_covs: np.ndarray
     S: np.ndarray
+    gains: np.ndarray
     chol_inv: np.ndarray
     log_dets: np.ndarray
 
 
-def _covariance_pass(A, C, R, GQGt, P0, observed) -> _CovariancePass:
-    """Run the covariance recursion (predict, Joseph update) for one missing-data pattern.
+def _finish(covs, pred_covs, S, gains, chols, observed) -> _Covariances:
+    """Add L^{-1} and log det S for the observed steps (any leading axes)."""
+    m = S.shape[-1]
+    chol_inv = np.zeros(S.shape)
+    log_dets = np.zeros(S.shape[:-2])
+    if observed.any():
+        Ls = chols[observed]
+        # L^{-1} from the triangular systems L X = I, once per step, so that
+        # r^T S^{-1} r = |L^{-1} r|^2 vectorises over steps and sequences.
+        chol_inv[observed] = np.linalg.solve(Ls, np.broadcast_to(np.eye(m), Ls.shape))
+        # log det S = 2 sum_i log L_ii
+        log_dets[observed] = 2.0 * np.log(np.diagonal(Ls, axis1=-2, axis2=-1)).sum(axis=-1)
+    return _Covariances(covs, pred_covs, S, gains, chol_inv, log_dets)
+
+
+def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
+    """Covariance recursion (predict, Joseph update) for one missing-data pattern (T,).
 
     For a time-invariant model the recursion reaches a floating-point fixed
     point after a few dozen to a few hundred steps (the Riccati map is a
-    contraction): the predicted covariance comes out bit-for-bit equal to
-    the previous one. From then on every step would recompute exactly the
-    same numbers, so they are reused instead. This is exact, not an
+    contraction): the predicted covariance comes out bit-for-bit equal to the
+    previous one. From then on every step would recompute exactly the same
+    numbers, so they are reused instead. This is exact, not an
     approximation: a step is reused only when its input is bitwise identical
     to the input of the step it copies.
     """
     n, m, T = A.shape[0], C.shape[0], observed.shape[0]
     eye_n = np.eye(n)
-    mats = [P0]
+    mats = [P0]                 # every distinct covariance, indexed by the steps
     gains, Ss, chols = [], [], []
     pred_idx = np.empty(T, dtype=np.intp)
     post_idx = np.empty(T, dtype=np.intp)
-    upd_idx = np.full(T, -1, dtype=np.intp)
+    upd_idx = np.zeros(T, dtype=np.intp)
     P, i = P0, 0
     last_pred = None  # (P_{t-1|t-1} it was computed from, index of the P_{t|t-1} it gave)
     last_upd = None   # (P_{t|t-1} it was computed from, update index, index of P_{t|t})
@@ -448,33 +475,86 @@ def _covariance_pass(A, C, R, GQGt, P0, observed) -> _CovariancePass:
                 last_upd = (P_pred, u, i)
             upd_idx[t] = u
         post_idx[t] = i
-    n_upd = len(gains)
-    if n_upd:
-        Ls = np.stack(chols)
-        # L^{-1} from triangular systems L X = I, once per distinct S, so that
-        # r^T S^{-1} r = |L^{-1} r|^2 vectorises over steps and sequences.
-        chol_inv = np.linalg.solve(Ls, np.broadcast_to(np.eye(m), Ls.shape))
-        # log det S = 2 sum_i log L_ii
-        log_dets = 2.0 * np.log(np.diagonal(Ls, axis1=1, axis2=2)).sum(axis=1)
-        gains_a, S_a = np.stack(gains), np.stack(Ss)
-    else:
-        chol_inv = S_a = np.empty((0, m, m))
-        gains_a = np.empty((0, n, m))
-        log_dets = np.empty(0)
-    return _CovariancePass(np.stack(mats), pred_idx, post_idx, upd_idx, gains_a, S_a,
-                           chol_inv, log_dets)
+    mats = np.stack(mats)
+    S_t = np.full((T, m, m), np.nan)
+    gains_t = np.zeros((T, n, m))
+    chols_t = np.zeros((T, m, m))
+    if gains:
+        u = upd_idx[observed]
+        S_t[observed] = np.stack(Ss)[u]
+        gains_t[observed] = np.stack(gains)[u]
+        chols_t[observed] = np.stack(chols)[u]
+    return _finish(mats[post_idx], mats[pred_idx], S_t, gains_t, chols_t, observed)
 
 
-def _step_logliks(cp: _CovariancePass, observed, innovations) -> np.ndarray:
-    """log N(r_t; 0, S_t) for the observed steps; innovations (..., T, m) -> (..., T)."""
+def _swap(a):
+    return np.swapaxes(a, -1, -2)
+
+
+def _covariance_pass_many(A, C, R, GQGt, P0, patterns) -> _Covariances:
+    """The covariance recursion for D missing-data patterns (D, T) at once, vectorised over D."""
+    n, m = A.shape[0], C.shape[0]
+    D, T = patterns.shape
+    eye_n = np.eye(n)
+    covs = np.empty((D, T, n, n))
+    pred_covs = np.empty((D, T, n, n))
+    S_all = np.full((D, T, m, m), np.nan)
+    gains = np.zeros((D, T, n, m))
+    chols = np.zeros((D, T, m, m))
+    P = np.broadcast_to(P0, (D, n, n))
+    for t in range(T):
+        if t > 0:
+            # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
+            P = A @ P @ A.T + GQGt
+            P = 0.5 * (P + _swap(P))
+        pred_covs[:, t] = P
+        obs = patterns[:, t]
+        if obs.any():
+            idx = slice(None) if obs.all() else np.flatnonzero(obs)
+            Pi = P[idx]
+            PCt = Pi @ C.T
+            # S = C P C^T + R
+            S = C @ PCt + R
+            try:
+                L = np.linalg.cholesky(S)
+            except np.linalg.LinAlgError:
+                raise ValueError("innovation covariance S = C P C^T + R is not positive "
+                                 f"definite at time step {t}") from None
+            # K = P C^T S^{-1}: solve S K^T = C P (no inverse)
+            K = _swap(np.linalg.solve(S, _swap(PCt)))
+            IKC = eye_n - K @ C
+            # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
+            Pn = IKC @ Pi @ _swap(IKC) + K @ R @ _swap(K)
+            Pn = 0.5 * (Pn + _swap(Pn))
+            if isinstance(idx, slice):
+                P = Pn
+            else:
+                P = np.array(P)
+                P[idx] = Pn
+            S_all[idx, t] = S
+            gains[idx, t] = K
+            chols[idx, t] = L
+        covs[:, t] = P
+    return _finish(covs, pred_covs, S_all, gains, chols, patterns)
+
+
+def _step_logliks(chol_inv, log_dets, observed, innovations) -> np.ndarray:
+    """log N(r_t; 0, S_t) where observed, 0 elsewhere.
+
+    innovations (..., T, m); chol_inv (T, m, m) shared, or (..., T, m, m).
+    """
     m = innovations.shape[-1]
-    out = np.zeros(innovations.shape[:-1])
-    u = cp.upd_idx[observed]
+    r = np.where(observed[..., None], innovations, 0.0)
     # z = L^{-1} r, so that r^T S^{-1} r = z^T z
-    z = np.einsum("tij,...tj->...ti", cp.chol_inv[u], innovations[..., observed, :])
+    if chol_inv.ndim == 3:
+        z = np.einsum("tij,...tj->...ti", chol_inv, r, optimize=True)
+    else:
+        z = np.matmul(chol_inv, r[..., None])[..., 0]
+    maha = z[..., 0] ** 2
+    for j in range(1, m):
+        maha += z[..., j] ** 2
     # log N(r; 0, S) = -(r^T S^{-1} r + log det S + m log 2 pi) / 2
-    out[..., observed] = -0.5 * (np.sum(z * z, axis=-1) + cp.log_dets[u] + m * LOG_2PI)
-    return out
+    return np.where(observed, -0.5 * (maha + log_dets + m * LOG_2PI), 0.0)
 
 
 def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
@@ -485,11 +565,11 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     ``ys[t]`` (as :func:`predict` and :func:`update` do) unless that row is
     missing (all NaN), in which case the filtered belief is the prediction.
 
-    The arguments are validated once; the loop then runs unchecked kernels.
+    The arguments are validated once; the loop then runs unchecked code.
     The covariances do not depend on the measured values, so they are
     computed first, reusing steps once the recursion has reached its
     floating-point fixed point (exactly, see the source), and only the means
-    are run through the measurements.
+    are then run through the measurements.
 
     Parameters
     ----------
@@ -525,15 +605,9 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     Bus = _check_inputs(model, us, T, None)
     A, C = model.A, model.C
     GQGt = model.G @ model.Q @ model.G.T
-    cp = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
+    cov = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
 
-    covs = cp.mats[cp.post_idx]
-    pred_covs = cp.mats[cp.pred_idx]
-    gains = np.zeros((T, n, m))
-    gains[observed] = cp.gains[cp.upd_idx[observed]]
-    innovation_covs = np.full((T, m, m), np.nan)
-    innovation_covs[observed] = cp.S[cp.upd_idx[observed]]
-
+    gains = cov.gains
     means = np.empty((T, n))
     pred_means = np.empty((T, n))
     obs_list = observed.tolist()
@@ -551,14 +625,27 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
         means[t] = x
     # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
     innovations = ys - pred_means @ C.T
-    step_logliks = _step_logliks(cp, observed, innovations)
-    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
+    step_logliks = _step_logliks(cov.chol_inv, cov.log_dets, observed, innovations)
+    return FilterResult(means, cov.covs, pred_means, cov.pred_covs, innovations, cov.S,
                         gains, step_logliks, float(step_logliks.sum()), observed)
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    a.setflags(write=False)
-    return a
+#: Up to this many distinct missing-data patterns, the covariance recursion runs
+#: once per pattern (reusing converged steps); beyond it, once vectorised over them.
+_FEW_PATTERNS = 4
+
+
+def _missing_patterns(observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct rows of ``observed`` (D, T) and, for each sequence, the index of its row."""
+    M = observed.shape[0]
+    if (observed == observed[0]).all():
+        return observed[:1], np.zeros(M, dtype=np.intp)
+    keys: dict[bytes, int] = {}
+    which = np.empty(M, dtype=np.intp)
+    for i, row in enumerate(np.packbits(observed, axis=1)):
+        which[i] = keys.setdefault(row.tobytes(), len(keys))
+    first = np.unique(which, return_index=True)[1]
+    return observed[first], which
 
 
 def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
@@ -589,8 +676,8 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
         (M, T, n, n), ..., ``loglik`` (M,), ``observed`` (M, T).
         ``covs``, ``pred_covs``, ``innovation_covs`` and ``gains`` are
         read-only: sequences with the same missing-data pattern share them,
-        and when all do they are broadcast views that cost no memory (copy
-        them with ``np.array`` to modify).
+        and when all sequences do they are broadcast views that cost no
+        memory (copy with ``np.array`` to modify).
     """
     _check_model(model)
     n, m = model.state_dim, model.obs_dim
@@ -602,69 +689,55 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     At, Ct = A.T, C.T
     GQGt = model.G @ model.Q @ model.G.T
 
-    patterns, which = np.unique(observed, axis=0, return_inverse=True)
-    which = np.asarray(which).reshape(M)
-    single = patterns.shape[0] == 1
-    if single:
-        covs = pred_covs = innovation_covs = gains = None
+    patterns, which = _missing_patterns(observed)
+    D = patterns.shape[0]
+    if D <= _FEW_PATTERNS:
+        parts = [_covariance_pass(A, C, model.R, GQGt, model.P0, p) for p in patterns]
+        cov = _Covariances(*(np.stack(field) for field in zip(*parts)))
     else:
-        covs = np.empty((M, T, n, n))
-        pred_covs = np.empty((M, T, n, n))
-        innovation_covs = np.empty((M, T, m, m))
-        gains = np.empty((M, T, n, m))
+        cov = _covariance_pass_many(A, C, model.R, GQGt, model.P0, patterns)
+
     means = np.empty((M, T, n))
     pred_means = np.empty((M, T, n))
-    step_logliks = np.empty((M, T))
-
-    for k, pattern in enumerate(patterns):
-        idx = slice(None) if single else np.flatnonzero(which == k)
-        cp = _covariance_pass(A, C, model.R, GQGt, model.P0, pattern)
-        covs_k = cp.mats[cp.post_idx]
-        pred_covs_k = cp.mats[cp.pred_idx]
-        gains_k = np.zeros((T, n, m))
-        gains_k[pattern] = cp.gains[cp.upd_idx[pattern]]
-        S_k = np.full((T, m, m), np.nan)
-        S_k[pattern] = cp.S[cp.upd_idx[pattern]]
-        gains_kt = np.swapaxes(gains_k, 1, 2).copy()
-        y_k = ys[idx]
-        Bu_k = None if Bus is None else (Bus if Bus.ndim == 2 else Bus[idx])
-        Mk = y_k.shape[0]
-        pm = np.empty((Mk, T, n))
-        mm = np.empty((Mk, T, n))
-        x = np.broadcast_to(model.m0, (Mk, n))
-        obs_list = pattern.tolist()
-        for t in range(T):
-            if t > 0:
-                # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}   (rows are sequences: X A^T)
-                x = x @ At
-                if Bu_k is not None:
-                    x = x + Bu_k[..., t - 1, :]
-            pm[:, t] = x
-            if obs_list[t]:
-                # x_{t|t} = x_{t|t-1} + K_t (y_t - C x_{t|t-1})
-                x = x + (y_k[:, t] - x @ Ct) @ gains_kt[t]
-            mm[:, t] = x
-        # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
-        innov_k = y_k - pm @ Ct
-        ll_k = _step_logliks(cp, pattern, innov_k)
-        if single:
-            means, pred_means, step_logliks, innovations = mm, pm, ll_k, innov_k
-            covs = np.broadcast_to(covs_k, (M, T, n, n))
-            pred_covs = np.broadcast_to(pred_covs_k, (M, T, n, n))
-            innovation_covs = np.broadcast_to(S_k, (M, T, m, m))
-            gains = np.broadcast_to(gains_k, (M, T, n, m))
-        else:
-            if k == 0:
-                innovations = np.empty((M, T, m))
-            means[idx], pred_means[idx], step_logliks[idx], innovations[idx] = mm, pm, ll_k, innov_k
-            covs[idx] = covs_k
-            pred_covs[idx] = pred_covs_k
-            innovation_covs[idx] = S_k
-            gains[idx] = gains_k
-    if not single:
-        for a in (covs, pred_covs, innovation_covs, gains):
-            _read_only(a)
-    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
+    if D == 1:
+        gains_t = _swap(cov.gains[0]).copy()     # (T, m, n): K_t^T shared by all sequences
+        obs_list = patterns[0].tolist()
+    else:
+        gains_seq = cov.gains[which]             # (M, T, n, m)
+        obs_list = observed.any(axis=0).tolist()
+    x = np.broadcast_to(model.m0, (M, n))
+    for t in range(T):
+        if t > 0:
+            # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}   (rows are sequences: X A^T)
+            x = x @ At
+            if Bus is not None:
+                x = x + Bus[..., t - 1, :]
+        pred_means[:, t] = x
+        if obs_list[t]:
+            # r = y_t - C x_{t|t-1}
+            r = ys[:, t] - x @ Ct
+            # x_{t|t} = x_{t|t-1} + K_t r
+            if D == 1:
+                x = x + r @ gains_t[t]
+            else:
+                # a missing row has K_t = 0; its r (NaN) is replaced by 0 so that x stays put
+                r = np.where(observed[:, t, None], r, 0.0)
+                x = x + (gains_seq[:, t] @ r[:, :, None])[:, :, 0]
+        means[:, t] = x
+    # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
+    innovations = ys - pred_means @ C.T
+    if D == 1:
+        step_logliks = _step_logliks(cov.chol_inv[0], cov.log_dets[0], observed, innovations)
+        covs, pred_covs, S, gains = (np.broadcast_to(a[0], (M,) + a.shape[1:])
+                                     for a in (cov.covs, cov.pred_covs, cov.S, cov.gains))
+    else:
+        step_logliks = _step_logliks(cov.chol_inv[which], cov.log_dets[which], observed,
+                                     innovations)
+        covs, pred_covs, S, gains = (a[which] for a in (cov.covs, cov.pred_covs, cov.S,
+                                                        cov.gains))
+        for a in (covs, pred_covs, S, gains):
+            a.setflags(write=False)
+    return FilterResult(means, covs, pred_means, pred_covs, innovations, S,
                         gains, step_logliks, step_logliks.sum(axis=1), observed)
 
 

@@ -1,0 +1,246 @@
+"""Tests of bf.gaussian against independent references.
+
+References: the precision-matrix (Schur complement) form of Gaussian
+conditioning, least-squares regression on Monte Carlo draws, scipy.stats
+(multivariate_normal, chi2), explicit per-pair linear solves, and Monte
+Carlo coverage of the chi-square interval.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import bayesfilt as bf
+
+
+def random_spd(rng, k, scale=1.0):
+    a = rng.standard_normal((k, k))
+    return scale * (a @ a.T / k + 0.2 * np.eye(k))
+
+
+def split(joint, k):
+    return joint[:k, :k], joint[:k, k:], joint[k:, k:]
+
+
+# --------------------------------------------------------------------------
+# condition (Theorem 10.2)
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("k,l", [(1, 1), (2, 3), (4, 2), (3, 1)])
+def test_condition_equals_precision_form(k, l):
+    """x | y from the precision matrix Lambda = Sigma^{-1}: mean mu_x - Lxx^{-1} Lxy (y - mu_y),
+    covariance Lxx^{-1} (the inverse of the Schur complement)."""
+    rng = np.random.default_rng(k * 10 + l)
+    joint = random_spd(rng, k + l)
+    mu = rng.standard_normal(k + l)
+    y = rng.standard_normal(l)
+    Lam = np.linalg.inv(joint)
+    Lxx, Lxy = Lam[:k, :k], Lam[:k, k:]
+    mean_ref = mu[:k] - np.linalg.solve(Lxx, Lxy @ (y - mu[k:]))
+    cov_ref = np.linalg.inv(Lxx)
+    cxx, cxy, cyy = split(joint, k)
+    post = bf.gaussian.condition(mu[:k], mu[k:], cxx, cxy, cyy, y)
+    assert isinstance(post, bf.gaussian.Gaussian)
+    np.testing.assert_allclose(post.mean, mean_ref, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(post.cov, cov_ref, rtol=1e-10, atol=1e-12)
+    np.testing.assert_array_equal(post.cov, post.cov.T)
+    m, P = post  # unpacks
+    assert m.shape == (k,) and P.shape == (k, k)
+
+
+def test_condition_equals_monte_carlo_regression():
+    """Regress x on y over joint draws: slope = C_xy C_yy^{-1}, residual covariance = C_{x|y}."""
+    rng = np.random.default_rng(1)
+    k, l, N = 2, 2, 400_000
+    joint = random_spd(rng, k + l)
+    mu = np.array([1.0, -2.0, 0.5, 3.0])
+    draws = rng.multivariate_normal(mu, joint, size=N)
+    X, Y = draws[:, :k], draws[:, k:]
+    design = np.column_stack([np.ones(N), Y])
+    coef, *_ = np.linalg.lstsq(design, X, rcond=None)
+    resid = X - design @ coef
+    y0 = np.array([0.0, 2.5])
+    cxx, cxy, cyy = split(joint, k)
+    post = bf.gaussian.condition(mu[:k], mu[k:], cxx, cxy, cyy, y0)
+    # E[x | y0] predicted by the fitted regression line; tolerance ~ 5 standard errors
+    np.testing.assert_allclose(coef[0] + y0 @ coef[1:], post.mean, atol=0.02)
+    np.testing.assert_allclose(np.cov(resid.T), post.cov, atol=0.01)
+
+
+def test_condition_kalman_scalar_example():
+    # x ~ N(0, 1), y = x + v, v ~ N(0, 0.5): posterior N(0.9 / 1.5, 1 - 1 / 1.5)
+    post = bf.gaussian.condition([0.0], [0.0], [[1.0]], [[1.0]], [[1.5]], [0.9])
+    np.testing.assert_allclose(post.mean, [0.6])
+    np.testing.assert_allclose(post.cov, [[1.0 / 3.0]])
+
+
+def test_condition_bad_inputs():
+    ok = dict(mean_x=[0.0, 0.0], mean_y=[0.0], cov_xx=np.eye(2), cov_xy=[[0.5], [0.0]],
+              cov_yy=[[1.0]], y=[1.0])
+    cases = [
+        ("cov_yy", [[0.0]], "cov_yy must be positive definite"),
+        ("cov_yy", [[-1.0]], "cov_yy must be positive semi-definite"),
+        ("cov_xy", [[0.5, 0.1], [0.0, 0.0]], "cov_xy must have shape"),
+        ("cov_xy", [[2.0], [0.0]], "cov_xy is inconsistent"),
+        ("cov_xx", [[1.0, 0.3], [0.0, 1.0]], "cov_xx must be symmetric"),
+        ("cov_xx", np.eye(3), "cov_xx must have shape"),
+        ("y", [1.0, 2.0], "y must have shape"),
+        ("y", [np.nan], "y must be finite"),
+        ("mean_x", [[0.0, 0.0]], "mean_x"),
+    ]
+    for key, bad, match in cases:
+        with pytest.raises(ValueError, match=match):
+            bf.gaussian.condition(**{**ok, key: bad})
+
+
+# --------------------------------------------------------------------------
+# logpdf
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n", [1, 3, 5])
+def test_logpdf_equals_scipy(n):
+    rng = np.random.default_rng(n)
+    mean, cov = rng.standard_normal(n), random_spd(rng, n)
+    xs = rng.standard_normal((7, n))
+    ref = stats.multivariate_normal(mean, cov).logpdf(xs)
+    got = bf.gaussian.logpdf(xs, mean, cov)
+    assert got.shape == (7,)
+    np.testing.assert_allclose(got, ref, rtol=1e-12)
+    one = bf.gaussian.logpdf(xs[0], mean, cov)
+    assert isinstance(one, float)
+    np.testing.assert_allclose(one, ref[0], rtol=1e-12)
+
+
+def test_logpdf_bad_inputs():
+    with pytest.raises(ValueError, match="cov must be positive definite"):
+        bf.gaussian.logpdf([0.0, 0.0], np.zeros(2), [[1.0, 1.0], [1.0, 1.0]])
+    with pytest.raises(ValueError, match="x must have shape"):
+        bf.gaussian.logpdf([0.0, 0.0, 0.0], np.zeros(2), np.eye(2))
+    with pytest.raises(ValueError, match="cov must have shape"):
+        bf.gaussian.logpdf([0.0, 0.0], np.zeros(2), np.eye(3))
+    with pytest.raises(ValueError, match="x must be finite"):
+        bf.gaussian.logpdf([np.nan, 0.0], np.zeros(2), np.eye(2))
+
+
+# --------------------------------------------------------------------------
+# sample
+# --------------------------------------------------------------------------
+
+def test_sample_moments():
+    rng = np.random.default_rng(2)
+    mean, cov = np.array([1.0, -1.0, 2.0]), random_spd(rng, 3)
+    xs = bf.gaussian.sample(np.random.default_rng(3), mean, cov, 200_000)
+    assert xs.shape == (200_000, 3)
+    np.testing.assert_allclose(xs.mean(axis=0), mean, atol=0.01)
+    np.testing.assert_allclose(np.cov(xs.T), cov, atol=0.015)
+    # reproducible from the seed
+    np.testing.assert_array_equal(bf.gaussian.sample(np.random.default_rng(3), mean, cov, 5),
+                                  xs[:5])
+
+
+def test_sample_singular_covariance():
+    cov = np.array([[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 0.0]])
+    xs = bf.gaussian.sample(np.random.default_rng(4), [0.0, 0.0, 5.0], cov, 50_000)
+    np.testing.assert_allclose(xs[:, 0], xs[:, 1], atol=1e-12)
+    np.testing.assert_allclose(xs[:, 2], 5.0, atol=1e-12)
+    np.testing.assert_allclose(np.var(xs[:, 0]), 1.0, atol=0.03)
+
+
+def test_sample_bad_inputs():
+    with pytest.raises(TypeError, match="rng"):
+        bf.gaussian.sample(np.random.RandomState(0), [0.0], [[1.0]], 3)
+    with pytest.raises(TypeError, match="rng"):
+        bf.gaussian.sample(0, [0.0], [[1.0]], 3)
+    with pytest.raises(ValueError, match="size"):
+        bf.gaussian.sample(np.random.default_rng(0), [0.0], [[1.0]], 0)
+    with pytest.raises(TypeError, match="size"):
+        bf.gaussian.sample(np.random.default_rng(0), [0.0], [[1.0]], 2.0)
+    with pytest.raises(ValueError, match="cov must be positive semi-definite"):
+        bf.gaussian.sample(np.random.default_rng(0), [0.0, 0.0], [[1.0, 2.0], [2.0, 1.0]], 3)
+
+
+# --------------------------------------------------------------------------
+# squared_mahalanobis
+# --------------------------------------------------------------------------
+
+def test_squared_mahalanobis_broadcasting_and_values():
+    rng = np.random.default_rng(5)
+    M, T, n = 4, 6, 3
+    diffs = rng.standard_normal((M, T, n))
+    covs = np.stack([random_spd(rng, n) for _ in range(T)])
+    got = bf.gaussian.squared_mahalanobis(diffs, covs)
+    assert got.shape == (M, T)
+    ref = np.array([[d @ np.linalg.solve(covs[t], d) for t, d in enumerate(row)] for row in diffs])
+    np.testing.assert_allclose(got, ref, rtol=1e-10)
+    # one shared matrix, and a single pair
+    shared = bf.gaussian.squared_mahalanobis(diffs, covs[0])
+    np.testing.assert_allclose(shared[1, 2], diffs[1, 2] @ np.linalg.solve(covs[0], diffs[1, 2]))
+    single = bf.gaussian.squared_mahalanobis(diffs[0, 0], covs[0])
+    assert np.shape(single) == ()
+    np.testing.assert_allclose(single, ref[0, 0], rtol=1e-10)
+
+
+def test_nees_of_true_gaussian_errors_is_chi2():
+    """NEES of errors drawn from their own covariance averages n (Monte Carlo)."""
+    rng = np.random.default_rng(6)
+    n, N = 4, 100_000
+    cov = random_spd(rng, n)
+    errs = bf.gaussian.sample(rng, np.zeros(n), cov, N)
+    nees = bf.gaussian.squared_mahalanobis(errs, cov)
+    assert abs(nees.mean() - n) < 5 * np.sqrt(2 * n / N)
+    assert stats.kstest(nees, stats.chi2(n).cdf).pvalue > 1e-3
+
+
+def test_squared_mahalanobis_bad_inputs():
+    with pytest.raises(ValueError, match="covs must have shape"):
+        bf.gaussian.squared_mahalanobis(np.zeros((5, 2)), np.eye(3))
+    with pytest.raises(ValueError, match="covs must have shape"):
+        bf.gaussian.squared_mahalanobis(np.zeros((5, 2)), np.ones(2))
+    with pytest.raises(ValueError, match="do not broadcast"):
+        bf.gaussian.squared_mahalanobis(np.zeros((5, 2)), np.broadcast_to(np.eye(2), (4, 2, 2)))
+    with pytest.raises(ValueError, match="covs must be positive definite"):
+        bf.gaussian.squared_mahalanobis(np.zeros(2), [[1.0, 1.0], [1.0, 1.0]])
+    with pytest.raises(ValueError, match="covs must be symmetric"):
+        bf.gaussian.squared_mahalanobis(np.zeros(2), [[1.0, 0.5], [0.0, 1.0]])
+    with pytest.raises(ValueError, match="diffs must be finite"):
+        bf.gaussian.squared_mahalanobis([np.nan, 0.0], np.eye(2))
+    with pytest.raises(ValueError, match="diffs"):
+        bf.gaussian.squared_mahalanobis(1.0, np.eye(1))
+
+
+# --------------------------------------------------------------------------
+# chi2_interval
+# --------------------------------------------------------------------------
+
+def test_chi2_interval_table_values():
+    # Printed chi-square tables: chi2_1 2.5 % / 97.5 % points 0.000982 / 5.024,
+    # chi2_4: 0.484 / 11.143
+    np.testing.assert_allclose(bf.gaussian.chi2_interval(1), (0.000982, 5.024), rtol=2e-3)
+    np.testing.assert_allclose(bf.gaussian.chi2_interval(4), (0.484, 11.143), rtol=2e-3)
+
+
+@pytest.mark.parametrize("dof,n_runs,confidence", [(2, 1, 0.95), (4, 50, 0.95), (3, 10, 0.99)])
+def test_chi2_interval_coverage_monte_carlo(dof, n_runs, confidence):
+    rng = np.random.default_rng(dof * 100 + n_runs)
+    N = 100_000
+    avgs = rng.chisquare(dof, size=(N, n_runs)).mean(axis=1)
+    low, high = bf.gaussian.chi2_interval(dof, n_runs, confidence)
+    inside = np.mean((avgs >= low) & (avgs <= high))
+    assert abs(inside - confidence) < 5 * np.sqrt(confidence * (1 - confidence) / N)
+    # symmetric tails
+    assert abs(np.mean(avgs < low) - np.mean(avgs > high)) < 0.006
+
+
+def test_chi2_interval_bad_inputs():
+    with pytest.raises(ValueError, match="dof"):
+        bf.gaussian.chi2_interval(0)
+    with pytest.raises(TypeError, match="dof"):
+        bf.gaussian.chi2_interval(2.0)
+    with pytest.raises(ValueError, match="n_runs"):
+        bf.gaussian.chi2_interval(2, n_runs=0)
+    with pytest.raises(ValueError, match="confidence"):
+        bf.gaussian.chi2_interval(2, confidence=1.0)
+    with pytest.raises(TypeError, match="confidence"):
+        bf.gaussian.chi2_interval(2, confidence="high")

@@ -1,0 +1,528 @@
+"""Tests of bf.kalman against independent references.
+
+References: filterpy 2.0.0 (KalmanFilter and its module-level predict/update),
+the joint Gaussian of all measurements written out by brute force (log
+likelihood and posterior of a short run, with missing rows), a plain
+iteration of the Riccati recursion, and the seed's textbook P - K C P form.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from filterpy.kalman import KalmanFilter
+from filterpy.kalman import predict as fp_predict
+from filterpy.kalman import update as fp_update
+from scipy.stats import multivariate_normal
+
+import bayesfilt as bf
+
+TOL = dict(rtol=1e-9, atol=1e-10)
+
+
+# --------------------------------------------------------------------------
+# Helpers
+# --------------------------------------------------------------------------
+
+def random_spd(rng, k, scale=1.0):
+    a = rng.standard_normal((k, k))
+    return scale * (a @ a.T / k + 0.3 * np.eye(k))
+
+
+def random_model(rng, n, m, q=None, p=None):
+    """A random stable LinearGaussian: spectral radius 0.95, G (n, q), optional B (n, p)."""
+    q = n if q is None else q
+    A = rng.standard_normal((n, n))
+    A *= 0.95 / np.max(np.abs(np.linalg.eigvals(A)))
+    return bf.models.LinearGaussian(
+        A=A, C=rng.standard_normal((m, n)), Q=random_spd(rng, q, 0.5), R=random_spd(rng, m),
+        m0=rng.standard_normal(n), P0=random_spd(rng, n, 2.0), G=rng.standard_normal((n, q)),
+        B=None if p is None else rng.standard_normal((n, p)))
+
+
+def filterpy_run(model, ys, us=None):
+    """filterpy on seed 000's time convention: update with ys[0] first, then predict/update."""
+    n, m = model.state_dim, model.obs_dim
+    kf = KalmanFilter(dim_x=n, dim_z=m, dim_u=0 if model.B is None else model.B.shape[1])
+    kf.F = model.A.copy()
+    kf.H = model.C.copy()
+    kf.Q = model.G @ model.Q @ model.G.T  # filterpy has no G
+    kf.R = model.R.copy()
+    if model.B is not None:
+        kf.B = model.B.copy()
+    kf.x = model.m0.copy()
+    kf.P = model.P0.copy()
+    out = {k: [] for k in ("means", "covs", "pred_means", "pred_covs", "innovations",
+                           "innovation_covs", "gains", "step_logliks")}
+    for t in range(len(ys)):
+        if t > 0:
+            kf.predict(u=None if us is None else us[t - 1])
+        out["pred_means"].append(kf.x.copy())
+        out["pred_covs"].append(kf.P.copy())
+        kf.update(ys[t])
+        out["means"].append(kf.x.copy())
+        out["covs"].append(kf.P.copy())
+        out["innovations"].append(kf.y.copy())
+        out["innovation_covs"].append(kf.S.copy())
+        out["gains"].append(kf.K.copy())
+        out["step_logliks"].append(kf.log_likelihood)
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def textbook_cov_pass(model, T, observed):
+    """Seed 000's recursion verbatim (P - K C P, explicit inverse): an independent reference."""
+    GQG = model.G @ model.Q @ model.G.T
+    P = model.P0.copy()
+    preds, posts = [], []
+    for t in range(T):
+        if t > 0:
+            P = model.A @ P @ model.A.T + GQG
+        preds.append(P)
+        if observed[t]:
+            K = P @ model.C.T @ np.linalg.inv(model.C @ P @ model.C.T + model.R)
+            P = P - K @ model.C @ P
+        posts.append(P)
+    return np.array(preds), np.array(posts)
+
+
+def brute_force(model, ys, us=None):
+    """Joint Gaussian of (x_0..x_{T-1}, observed y) written out directly.
+
+    Returns log p(observed ys) and the mean/cov of x_{T-1} given them (Theorem
+    10.2 on the joint), without any recursion over measurements.
+    """
+    n, m = model.state_dim, model.obs_dim
+    T = len(ys)
+    A, C = model.A, model.C
+    GQG = model.G @ model.Q @ model.G.T
+    # Stacked state X = Phi x0 + Psi W + input terms, with W the noises G w_0..G w_{T-2}
+    Phi = np.zeros((T * n, n))
+    Psi = np.zeros((T * n, max(T - 1, 1) * n))
+    mean_x = np.zeros(T * n)
+    x_det = model.m0.copy()
+    for t in range(T):
+        Phi[t * n:(t + 1) * n] = np.linalg.matrix_power(A, t)
+        for s in range(t):
+            Psi[t * n:(t + 1) * n, s * n:(s + 1) * n] = np.linalg.matrix_power(A, t - 1 - s)
+        if t > 0:
+            x_det = A @ x_det + (0 if us is None else model.B @ us[t - 1])
+        mean_x[t * n:(t + 1) * n] = x_det
+    cov_w = np.kron(np.eye(max(T - 1, 1)), GQG)
+    cov_x = Phi @ model.P0 @ Phi.T + Psi @ cov_w @ Psi.T
+    obs = ~np.isnan(ys).all(axis=1)
+    Cbig = np.kron(np.eye(T), C)[np.repeat(obs, m)]
+    y = ys[obs].ravel()
+    mean_y = Cbig @ mean_x
+    cov_y = Cbig @ cov_x @ Cbig.T + np.kron(np.eye(obs.sum()), model.R)
+    loglik = multivariate_normal(mean_y, cov_y).logpdf(y)
+    cov_xy = cov_x @ Cbig.T
+    last = slice((T - 1) * n, T * n)
+    W = np.linalg.solve(cov_y, cov_xy[last].T).T
+    mean_last = mean_x[last] + W @ (y - mean_y)
+    cov_last = cov_x[last, last] - W @ cov_xy[last].T
+    return loglik, mean_last, cov_last
+
+
+@pytest.fixture
+def particle():
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 60, np.random.default_rng(11)).ys
+    return model, ys
+
+
+# --------------------------------------------------------------------------
+# Single steps
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n,m", [(1, 1), (3, 2), (4, 3)])
+def test_predict_and_update_equal_filterpy_functions(n, m):
+    rng = np.random.default_rng(100 + n)
+    model = random_model(rng, n, m, p=2)
+    u = rng.standard_normal(2)
+    x, P = bf.kalman.predict(model.m0, model.P0, model.A, model.Q, G=model.G, B=model.B, u=u)
+    x_ref, P_ref = fp_predict(model.m0, model.P0, model.A, model.G @ model.Q @ model.G.T,
+                              u=u, B=model.B)
+    np.testing.assert_allclose(x, x_ref, **TOL)
+    np.testing.assert_allclose(P, P_ref, **TOL)
+    y = rng.standard_normal(m)
+    step = bf.kalman.update(x, P, y, model.C, model.R)
+    xu, Pu, r, K, S, ll = fp_update(x, P, y, model.R, model.C, return_all=True)
+    for got, want in ((step.mean, xu), (step.cov, Pu), (step.innovation, r), (step.gain, K),
+                      (step.innovation_cov, S)):
+        np.testing.assert_allclose(got, want, **TOL)
+    # Not filterpy's `ll` here: filterpy 2.0.0's module-level update() evaluates the
+    # likelihood at the *updated* mean, logpdf(z, H x_post, S), which is not log p(y).
+    np.testing.assert_allclose(step.loglik, multivariate_normal(model.C @ x, S).logpdf(y),
+                               **TOL)
+    assert not np.isclose(ll, step.loglik)
+    assert isinstance(step.loglik, float)
+
+
+def test_predict_default_G_is_identity_and_unpacks():
+    x, P = bf.kalman.predict([1.0, 2.0], np.eye(2), [[1.0, 1.0], [0.0, 1.0]], 0.1 * np.eye(2))
+    np.testing.assert_allclose(x, [3.0, 2.0])
+    np.testing.assert_allclose(P, [[2.1, 1.0], [1.0, 1.1]])
+
+
+def test_joseph_form_equals_textbook_form_on_a_well_conditioned_step():
+    rng = np.random.default_rng(3)
+    P, C, R = random_spd(rng, 4), rng.standard_normal((2, 4)), random_spd(rng, 2)
+    step = bf.kalman.update(np.zeros(4), P, np.ones(2), C, R)
+    K = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+    np.testing.assert_allclose(step.gain, K, **TOL)
+    np.testing.assert_allclose(step.cov, P - K @ C @ P, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(step.cov, step.cov.T)
+
+
+def test_update_is_scalar_friendly():
+    step = bf.kalman.update(0.0, 1.0, 0.9, 1.0, 0.5)
+    np.testing.assert_allclose(step.mean, [0.6])
+    np.testing.assert_allclose(step.cov, [[1.0 / 3.0]])
+
+
+# --------------------------------------------------------------------------
+# Whole runs against filterpy
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n,m,q", [(1, 1, 1), (2, 1, 1), (2, 3, 2), (3, 2, 2), (4, 2, 2),
+                                   (5, 3, 3), (5, 1, 2)])
+def test_kalman_filter_equals_filterpy(n, m, q):
+    rng = np.random.default_rng(10 * n + m)
+    model = random_model(rng, n, m, q=q)
+    ys = bf.models.simulate(model, 50, rng).ys
+    ours = bf.kalman.kalman_filter(model, ys)
+    ref = filterpy_run(model, ys)
+    for key, want in ref.items():
+        np.testing.assert_allclose(getattr(ours, key), want, **TOL, err_msg=key)
+    np.testing.assert_allclose(ours.loglik, ref["step_logliks"].sum(), **TOL)
+    assert ours.observed.all() and isinstance(ours.loglik, float)
+    assert ours.means.shape == (50, n) and ours.gains.shape == (50, n, m)
+
+
+def test_time_convention(particle):
+    model, ys = particle
+    res = bf.kalman.kalman_filter(model, ys)
+    np.testing.assert_array_equal(res.pred_means[0], model.m0)
+    np.testing.assert_array_equal(res.pred_covs[0], model.P0)
+    # means[0] is the prior updated with ys[0]
+    np.testing.assert_allclose(res.means[0], bf.kalman.update(model.m0, model.P0, ys[0],
+                                                              model.C, model.R).mean, **TOL)
+    np.testing.assert_allclose(res.pred_means[1:], res.means[:-1] @ model.A.T, **TOL)
+
+
+def test_known_inputs_equal_filterpy_B_u():
+    rng = np.random.default_rng(7)
+    model = random_model(rng, 4, 2, q=2, p=2)
+    us = rng.standard_normal((39, 2))
+    ys = bf.models.simulate(model, 40, rng, us=us).ys
+    ours = bf.kalman.kalman_filter(model, ys, us)
+    ref = filterpy_run(model, ys, us)
+    for key, want in ref.items():
+        np.testing.assert_allclose(getattr(ours, key), want, **TOL, err_msg=key)
+    # T rows are accepted, the last is unused
+    longer = np.vstack([us, [1e6, -1e6]])
+    np.testing.assert_array_equal(bf.kalman.kalman_filter(model, ys, longer).means, ours.means)
+
+
+def test_damped_particle_long_run_equals_filterpy():
+    """Long enough for the covariance recursion to reach its fixed point (reused steps)."""
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 600, np.random.default_rng(5)).ys
+    ours = bf.kalman.kalman_filter(model, ys)
+    ref = filterpy_run(model, ys)
+    for key, want in ref.items():
+        np.testing.assert_allclose(getattr(ours, key), want, **TOL, err_msg=key)
+
+
+# --------------------------------------------------------------------------
+# Brute force: the joint Gaussian of all observed measurements
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("missing", [[], [2], [0, 3, 4], [1, 2, 3, 4, 5, 6]])
+def test_loglik_and_last_posterior_equal_joint_gaussian(missing):
+    rng = np.random.default_rng(21 + len(missing))
+    model = random_model(rng, 3, 2, q=2, p=1)
+    T = 7
+    us = rng.standard_normal((T - 1, 1))
+    ys = bf.models.simulate(model, T, rng, us=us).ys
+    ys[missing] = np.nan
+    res = bf.kalman.kalman_filter(model, ys, us)
+    loglik, mean_last, cov_last = brute_force(model, ys, us)
+    np.testing.assert_allclose(res.loglik, loglik, rtol=1e-9)
+    np.testing.assert_allclose(res.means[-1], mean_last, rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(res.covs[-1], cov_last, rtol=1e-8, atol=1e-9)
+
+
+def test_missing_rows_only_predict(particle):
+    model, ys = particle
+    ys = ys.copy()
+    missing = [0, 5, 6, 7, 30, 59]
+    ys[missing] = np.nan
+    res = bf.kalman.kalman_filter(model, ys)
+    # Reference: the public one-step functions, skipping the update at missing steps
+    x, P = model.m0, model.P0
+    for t in range(len(ys)):
+        if t > 0:
+            x, P = bf.kalman.predict(x, P, model.A, model.Q, G=model.G)
+        if t not in missing:
+            x, P = bf.kalman.update(x, P, ys[t], model.C, model.R)[:2]
+        np.testing.assert_allclose(res.means[t], x, **TOL)
+        np.testing.assert_allclose(res.covs[t], P, **TOL)
+    np.testing.assert_array_equal(res.means[missing], res.pred_means[missing])
+    np.testing.assert_array_equal(res.covs[missing], res.pred_covs[missing])
+    assert np.isnan(res.innovations[missing]).all()
+    assert np.isnan(res.innovation_covs[missing]).all()
+    assert (res.gains[missing] == 0).all() and (res.step_logliks[missing] == 0).all()
+    assert res.observed.sum() == len(ys) - len(missing) and not res.observed[missing].any()
+    assert np.isfinite(res.innovations[res.observed]).all()
+    np.testing.assert_allclose(res.loglik, res.step_logliks.sum(), rtol=1e-12)
+
+
+def test_all_missing_is_pure_prediction():
+    model = bf.models.damped_particle()
+    res = bf.kalman.kalman_filter(model, np.full((4, 2), np.nan))
+    assert res.loglik == 0.0 and not res.observed.any()
+    P = model.P0
+    for t in range(4):
+        np.testing.assert_allclose(res.covs[t], P, **TOL)
+        P = model.A @ P @ model.A.T + model.G @ model.Q @ model.G.T
+
+
+def test_covariance_recursion_equals_textbook_form(particle):
+    model, ys = particle
+    ys = ys.copy()
+    ys[[4, 9, 10]] = np.nan
+    res = bf.kalman.kalman_filter(model, ys)
+    preds, posts = textbook_cov_pass(model, len(ys), res.observed)
+    np.testing.assert_allclose(res.pred_covs, preds, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(res.covs, posts, rtol=1e-9, atol=1e-12)
+
+
+def test_covariances_stay_symmetric_psd_over_1e5_steps():
+    """A hard case: nearly noise-free position measurements of a constant-velocity state,
+    a vague prior and 30 % of the rows missing at random (so no step is a repeat)."""
+    rng = np.random.default_rng(0)
+    model = bf.models.LinearGaussian(A=[[1.0, 1.0], [0.0, 1.0]], C=[[1.0, 0.0]],
+                                     Q=[[1e-6]], R=[[1e-8]], m0=[0.0, 0.0],
+                                     P0=1e6 * np.eye(2), G=[[0.5], [1.0]])
+    T = 100_000
+    ys = rng.standard_normal((T, 1))
+    ys[rng.random(T) < 0.3] = np.nan
+    res = bf.kalman.kalman_filter(model, ys)
+    for covs in (res.covs, res.pred_covs):
+        np.testing.assert_array_equal(covs, np.swapaxes(covs, 1, 2))
+        eig = np.linalg.eigvalsh(covs)
+        assert eig.min() > 0.0
+    assert np.isfinite(res.loglik)
+
+
+# --------------------------------------------------------------------------
+# Batched filter
+# --------------------------------------------------------------------------
+
+def _compare_batch(model, ys, us=None):
+    batch = bf.kalman.batch_kalman_filter(model, ys, us)
+    for i in range(ys.shape[0]):
+        u_i = None if us is None else (us if np.ndim(us) == 2 else us[i])
+        one = bf.kalman.kalman_filter(model, ys[i], u_i)
+        for key in one._fields:
+            np.testing.assert_allclose(np.asarray(getattr(batch, key))[i], getattr(one, key),
+                                       rtol=1e-10, atol=1e-12, err_msg=f"{key}, sequence {i}")
+    return batch
+
+
+def test_batch_equals_per_sequence_same_pattern(particle):
+    model, _ = particle
+    rng = np.random.default_rng(8)
+    ys = np.stack([bf.models.simulate(model, 120, rng).ys for _ in range(6)])
+    ys[:, [3, 50]] = np.nan  # same missing rows in every sequence
+    batch = _compare_batch(model, ys)
+    assert batch.means.shape == (6, 120, 4) and batch.covs.shape == (6, 120, 4, 4)
+    assert batch.loglik.shape == (6,) and batch.observed.shape == (6, 120)
+
+
+def test_batch_equals_per_sequence_different_patterns():
+    rng = np.random.default_rng(9)
+    model = random_model(rng, 3, 2, q=1, p=2)
+    us = rng.standard_normal((7, 29, 2))
+    ys = np.stack([bf.models.simulate(model, 30, rng, us=us[i]).ys for i in range(7)])
+    ys[1, [0, 1]] = np.nan
+    ys[2, 10:20] = np.nan
+    ys[4, 29] = np.nan
+    ys[5, 0] = np.nan
+    _compare_batch(model, ys, us)        # per-sequence inputs
+    _compare_batch(model, ys, us[0])     # shared inputs
+
+
+def test_batch_equals_per_sequence_few_patterns(particle):
+    """2-4 distinct patterns take another code path (one recursion per pattern)."""
+    model, _ = particle
+    rng = np.random.default_rng(12)
+    ys = np.stack([bf.models.simulate(model, 150, rng).ys for _ in range(5)])
+    ys[[0, 3], 2] = np.nan
+    ys[1, 100:] = np.nan
+    batch = _compare_batch(model, ys)
+    assert not batch.covs.flags.writeable
+
+
+def test_batch_scalar_measurements_and_single_sequence():
+    model = bf.models.LinearGaussian(A=[[0.9]], C=[[1.0]], Q=[[0.1]], R=[[0.5]], m0=[0.0],
+                                     P0=[[1.0]])
+    ys = np.random.default_rng(1).standard_normal((1, 15, 1))
+    _compare_batch(model, ys)
+    np.testing.assert_allclose(bf.kalman.batch_kalman_filter(model, ys[:, :, 0]).means,
+                               bf.kalman.batch_kalman_filter(model, ys).means)
+
+
+def test_monte_carlo_consistency_nees_and_nis():
+    """Over many simulated runs the errors have exactly the covariances the filter reports:
+    the run-averaged NEES (NIS) stays in the chi-square interval of the average."""
+    model = bf.models.damped_particle()
+    rng = np.random.default_rng(31)
+    M, T = 2000, 60
+    # simulate all runs at once, straight from the model equations
+    xs = np.empty((M, T, 4))
+    xs[:, 0] = model.m0 + rng.standard_normal((M, 4)) @ np.linalg.cholesky(model.P0).T
+    for t in range(T - 1):
+        w = rng.standard_normal((M, 2)) * np.sqrt(np.diag(model.Q))
+        xs[:, t + 1] = xs[:, t] @ model.A.T + w @ model.G.T
+    ys = xs @ model.C.T + rng.standard_normal((M, T, 2)) * np.sqrt(np.diag(model.R))
+    res = bf.kalman.batch_kalman_filter(model, ys)
+    nees = bf.gaussian.squared_mahalanobis(xs - res.means, res.covs).mean(axis=0)
+    nis = bf.gaussian.squared_mahalanobis(res.innovations, res.innovation_covs).mean(axis=0)
+    low, high = bf.gaussian.chi2_interval(4, M, confidence=0.9999)
+    assert ((nees > low) & (nees < high)).all()
+    low, high = bf.gaussian.chi2_interval(2, M, confidence=0.9999)
+    assert ((nis > low) & (nis < high)).all()
+
+
+# --------------------------------------------------------------------------
+# Steady state
+# --------------------------------------------------------------------------
+
+def test_steady_state_solves_riccati_and_filter_converges(particle):
+    model, _ = particle
+    ss = bf.kalman.steady_state(model)
+    A, C, R = model.A, model.C, model.R
+    GQG = model.G @ model.Q @ model.G.T
+    P = ss.pred_cov
+    riccati = A @ P @ A.T - A @ P @ C.T @ np.linalg.solve(C @ P @ C.T + R, C @ P @ A.T) + GQG
+    np.testing.assert_allclose(riccati, P, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(ss.gain, P @ C.T @ np.linalg.inv(C @ P @ C.T + R), **TOL)
+    np.testing.assert_allclose(ss.cov, P - ss.gain @ C @ P, rtol=1e-9, atol=1e-12)
+    # The textbook recursion from a very different P0 converges to it as well
+    preds, posts = textbook_cov_pass(
+        bf.models.damped_particle(P0=100 * np.eye(4)), 1500, np.ones(1500, bool))
+    np.testing.assert_allclose(preds[-1], ss.pred_cov, rtol=1e-8, atol=1e-12)
+    # and so does the filter
+    res = bf.kalman.kalman_filter(model, np.zeros((800, 2)))
+    np.testing.assert_allclose(res.pred_covs[-1], ss.pred_cov, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(res.covs[-1], ss.cov, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(res.gains[-1], ss.gain, rtol=1e-8, atol=1e-12)
+
+
+def test_steady_state_without_stabilising_solution():
+    # An unstable mode (1.1) that the measurement does not see: no steady state.
+    model = bf.models.LinearGaussian(A=np.diag([1.1, 0.5]), C=[[0.0, 1.0]], Q=np.eye(2),
+                                     R=[[1.0]], m0=np.zeros(2), P0=np.eye(2))
+    with pytest.raises(ValueError, match="stabilising"):
+        bf.kalman.steady_state(model)
+
+
+def test_steady_state_needs_definite_R():
+    model = bf.models.LinearGaussian(A=[[0.5]], C=[[1.0]], Q=[[1.0]], R=[[0.0]], m0=[0.0],
+                                     P0=[[1.0]])
+    with pytest.raises(ValueError, match="R"):
+        bf.kalman.steady_state(model)
+
+
+# --------------------------------------------------------------------------
+# Bad inputs
+# --------------------------------------------------------------------------
+
+def test_bad_model_arguments():
+    ok = dict(A=np.eye(2), C=[[1.0, 0.0]], Q=np.eye(2), R=[[1.0]], m0=np.zeros(2), P0=np.eye(2))
+    LG = bf.models.LinearGaussian
+    for key, bad, match in [
+        ("A", np.ones((2, 3)), "A"),
+        ("C", np.ones((1, 3)), "C"),
+        ("Q", [[1.0, 0.5], [0.0, 1.0]], "Q must be symmetric"),
+        ("Q", [[1.0, 0.0], [0.0, -1.0]], "Q must be positive semi-definite"),
+        ("R", [[-1.0]], "R must be positive semi-definite"),
+        ("R", np.eye(2), "R"),
+        ("P0", [[1.0, 2.0], [2.0, 1.0]], "P0 must be positive semi-definite"),
+        ("P0", [[1.0, 0.1], [0.0, 1.0]], "P0 must be symmetric"),
+        ("P0", np.eye(3), "P0"),
+        ("m0", np.zeros(3), "m0"),
+        ("m0", [0.0, np.nan], "m0 must be finite"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            LG(**{**ok, key: bad})
+
+
+def test_bad_filter_arguments(particle):
+    model, ys = particle
+    with pytest.raises(TypeError, match="model"):
+        bf.kalman.kalman_filter(bf.models.to_nonlinear(model), ys)
+    with pytest.raises(TypeError, match="model"):
+        bf.kalman.batch_kalman_filter("model", ys[None])
+    with pytest.raises(ValueError, match="ys"):
+        bf.kalman.kalman_filter(model, ys[:, :1])
+    with pytest.raises(ValueError, match="ys"):
+        bf.kalman.kalman_filter(model, ys[None])
+    with pytest.raises(ValueError, match="ys"):
+        bf.kalman.kalman_filter(model, np.zeros((0, 2)))
+    with pytest.raises(ValueError, match="ys must be finite"):
+        bf.kalman.kalman_filter(model, np.array([[0.0, np.inf]]))
+    partly = ys.copy()
+    partly[17, 1] = np.nan
+    with pytest.raises(ValueError, match="ys row 17 .* partly NaN"):
+        bf.kalman.kalman_filter(model, partly)
+    with pytest.raises(ValueError, match=r"ys row \(1, 17\) .* partly NaN"):
+        bf.kalman.batch_kalman_filter(model, np.stack([ys, partly]))
+    with pytest.raises(ValueError, match="ys"):
+        bf.kalman.batch_kalman_filter(model, ys)
+    with pytest.raises(ValueError, match="us was given but the model has no control matrix B"):
+        bf.kalman.kalman_filter(model, ys, np.zeros((len(ys) - 1, 2)))
+    pushed = bf.models.damped_particle(B=model.G)
+    with pytest.raises(ValueError, match="us must have T - 1"):
+        bf.kalman.kalman_filter(pushed, ys, np.zeros((len(ys) - 2, 2)))
+    with pytest.raises(ValueError, match="us must have shape"):
+        bf.kalman.kalman_filter(pushed, ys, np.zeros((len(ys) - 1, 3)))
+    with pytest.raises(ValueError, match="us must be finite"):
+        bf.kalman.kalman_filter(pushed, ys, np.full((len(ys) - 1, 2), np.nan))
+    with pytest.raises(ValueError, match="us must have shape"):
+        bf.kalman.batch_kalman_filter(pushed, np.stack([ys, ys]), np.zeros((3, len(ys) - 1, 2)))
+
+
+def test_bad_step_arguments():
+    x, P, A, Q = np.zeros(2), np.eye(2), np.eye(2), np.eye(2)
+    with pytest.raises(ValueError, match="P must be symmetric"):
+        bf.kalman.predict(x, [[1.0, 0.2], [0.0, 1.0]], A, Q)
+    with pytest.raises(ValueError, match="P must be positive semi-definite"):
+        bf.kalman.predict(x, -np.eye(2), A, Q)
+    with pytest.raises(ValueError, match="A"):
+        bf.kalman.predict(x, P, np.ones((2, 3)), Q)
+    with pytest.raises(ValueError, match="A"):
+        bf.kalman.predict(x, P, np.eye(3), Q)
+    with pytest.raises(ValueError, match="Q must have shape"):
+        bf.kalman.predict(x, P, A, np.eye(1))
+    with pytest.raises(ValueError, match="G"):
+        bf.kalman.predict(x, P, A, np.eye(1), G=np.ones((3, 1)))
+    with pytest.raises(ValueError, match="B"):
+        bf.kalman.predict(x, P, A, Q, u=[1.0])
+    with pytest.raises(ValueError, match="u"):
+        bf.kalman.predict(x, P, A, Q, B=np.eye(2), u=[1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="x must be finite"):
+        bf.kalman.predict([np.nan, 0.0], P, A, Q)
+    C, R = np.eye(1, 2), np.eye(1)
+    with pytest.raises(ValueError, match="y must have shape"):
+        bf.kalman.update(x, P, [1.0, 2.0], C, R)
+    with pytest.raises(ValueError, match="C"):
+        bf.kalman.update(x, P, [1.0], np.ones((1, 3)), R)
+    with pytest.raises(ValueError, match="R"):
+        bf.kalman.update(x, P, [1.0], C, np.eye(2))
+    with pytest.raises(ValueError, match="y must be finite"):
+        bf.kalman.update(x, P, [np.nan], C, R)
+    with pytest.raises(ValueError, match="innovation covariance S"):
+        bf.kalman.update(x, np.zeros((2, 2)), [1.0], C, np.zeros((1, 1)))

@@ -1,0 +1,261 @@
+"""Tests of bf.models against independent references.
+
+References: the matrices typed from seed 000 (damped particle), Monte Carlo
+moments against the model formulas, scipy.stats.multivariate_normal, and
+hand-computed angles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+import bayesfilt as bf
+
+LG = bf.models.LinearGaussian
+
+
+def small_model(**kw):
+    args = dict(A=[[0.9, 0.2], [0.0, 0.7]], C=[[1.0, 0.5]], Q=[[0.3]], R=[[0.2]],
+                m0=[1.0, -1.0], P0=[[1.0, 0.2], [0.2, 0.5]], G=[[0.5], [1.0]],
+                B=[[1.0], [0.0]])
+    args.update(kw)
+    return LG(**args)
+
+
+# --------------------------------------------------------------------------
+# The seed's example
+# --------------------------------------------------------------------------
+
+def test_damped_particle_matrices_are_the_seeds():
+    # Typed from seed 000, section 2 ("Ex) particle ... random forces and damping").
+    A = np.array([[1, 1, 0, 0],
+                  [0, 0.98, 0, 0],
+                  [0, 0, 1, 1],
+                  [0, 0, 0, 0.98]])
+    G = np.array([[0, 0],
+                  [1, 0],
+                  [0, 0],
+                  [0, 1]])
+    C = np.array([[1, 0, 0, 0],
+                  [0, 0, 1, 0]])
+    model = bf.models.damped_particle()
+    np.testing.assert_array_equal(model.A, A)
+    np.testing.assert_array_equal(model.G, G)
+    np.testing.assert_array_equal(model.C, C)
+    np.testing.assert_array_equal(model.m0, np.zeros(4))  # the seed's mu_0 = 0
+    assert (model.state_dim, model.obs_dim, model.noise_dim) == (4, 2, 2)
+    assert model.B is None and model.control_dim == 0
+
+
+def test_model_arrays_are_read_only():
+    model = bf.models.damped_particle()
+    with pytest.raises(ValueError):
+        model.A[0, 0] = 2.0
+
+
+# --------------------------------------------------------------------------
+# Validation
+# --------------------------------------------------------------------------
+
+def test_linear_gaussian_validation():
+    for key, bad, match in [
+        ("A", np.ones((2, 3)), "A must be square"),
+        ("A", [[np.inf, 0.0], [0.0, 1.0]], "A must be finite"),
+        ("C", np.ones((1, 3)), "C must have shape"),
+        ("Q", [[1.0, 0.0], [0.0, 1.0]], "G must have shape"),
+        ("Q", [[-0.1]], "Q must be positive semi-definite"),
+        ("R", [[0.2, 0.0], [0.0, 0.2]], "R must have shape"),
+        ("R", [[-0.2]], "R must be positive semi-definite"),
+        ("m0", [1.0], "m0 must have shape"),
+        ("P0", [[1.0, 0.3], [0.2, 0.5]], "P0 must be symmetric"),
+        ("P0", [[1.0, 2.0], [2.0, 0.5]], "P0 must be positive semi-definite"),
+        ("G", [[1.0], [0.0], [0.0]], "G must have shape"),
+        ("B", [[1.0]], "B must have shape"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            small_model(**{key: bad})
+    with pytest.raises(ValueError, match="Q must have shape"):
+        LG(A=np.eye(2), C=[[1.0, 0.0]], Q=[[1.0]], R=[[1.0]], m0=[0.0, 0.0], P0=np.eye(2))
+    with pytest.raises(TypeError, match="A"):
+        small_model(A=None)
+
+
+def _pendulum_parts():
+    def f(x):
+        x = np.asarray(x, float)
+        return np.stack([x[..., 0] + 0.1 * x[..., 1], x[..., 1] - 0.1 * np.sin(x[..., 0])], -1)
+
+    def F(x):
+        return np.array([[1.0, 0.1], [-0.1 * np.cos(x[0]), 1.0]])
+
+    def h(x):
+        return np.sin(np.asarray(x, float)[..., :1])
+
+    def H(x):
+        return np.array([[np.cos(x[0]), 0.0]])
+
+    return dict(f=f, F=F, h=h, H=H, Q=[[0.01]], R=[[0.1]], m0=[0.5, 0.0], P0=np.eye(2),
+                G=[[0.0], [1.0]])
+
+
+def test_nonlinear_gaussian_validation():
+    ok = _pendulum_parts()
+    bf.models.NonlinearGaussian(**ok)
+    with pytest.raises(TypeError, match="f must be callable"):
+        bf.models.NonlinearGaussian(**{**ok, "f": 3.0})
+    with pytest.raises(TypeError, match="residual_fn must be callable"):
+        bf.models.NonlinearGaussian(**ok, residual_fn="wrap")
+    with pytest.raises(ValueError, match="f must map shape"):
+        bf.models.NonlinearGaussian(**{**ok, "f": lambda x: np.zeros(3)})
+    with pytest.raises(ValueError, match="row-wise"):
+        # works on one state only: returns (2,) for a batch
+        bf.models.NonlinearGaussian(**{**ok, "f": lambda x: np.asarray(x, float).ravel()[:2]})
+    with pytest.raises(ValueError, match="h must map shape"):
+        bf.models.NonlinearGaussian(**{**ok, "h": lambda x: np.asarray(x, float)})
+    with pytest.raises(ValueError, match="Jacobian F"):
+        bf.models.NonlinearGaussian(**{**ok, "F": lambda x: np.eye(3)})
+    with pytest.raises(ValueError, match="Jacobian H"):
+        bf.models.NonlinearGaussian(**{**ok, "H": lambda x: np.eye(2)})
+    with pytest.raises(ValueError, match="R must be positive semi-definite"):
+        bf.models.NonlinearGaussian(**{**ok, "R": [[-1.0]]})
+    with pytest.raises(ValueError, match="takes no control input"):
+        bf.models.NonlinearGaussian(**ok).transition_mean([0.0, 0.0], u=[1.0])
+
+
+# --------------------------------------------------------------------------
+# Simulation
+# --------------------------------------------------------------------------
+
+def test_simulate_shapes_and_time_convention():
+    # Noise-free dynamics and (nearly) noise-free measurements make the convention visible.
+    model = small_model(Q=[[0.0]], R=[[1e-20]], P0=np.zeros((2, 2)))
+    us = np.arange(4.0)[:, None]
+    xs, ys = bf.models.simulate(model, 5, np.random.default_rng(0), us=us)
+    assert xs.shape == (5, 2) and ys.shape == (5, 1)
+    np.testing.assert_allclose(xs[0], model.m0)  # x_0 ~ N(m0, 0)
+    for t in range(4):  # row t of us drives x_t -> x_{t+1}
+        np.testing.assert_allclose(xs[t + 1], model.A @ xs[t] + model.B @ us[t])
+    np.testing.assert_allclose(ys, xs @ model.C.T, atol=1e-8)  # ys[0] measures x_0
+    sim = bf.models.simulate(model, 3, np.random.default_rng(0), x0=[2.0, 3.0])
+    np.testing.assert_allclose(sim.xs[0], [2.0, 3.0])
+
+
+def test_simulate_bad_arguments():
+    model = small_model()
+    rng = np.random.default_rng(0)
+    with pytest.raises(TypeError, match="rng"):
+        bf.models.simulate(model, 5, 0)
+    with pytest.raises(ValueError, match="T must be >= 1"):
+        bf.models.simulate(model, 0, rng)
+    with pytest.raises(TypeError, match="T must be an integer"):
+        bf.models.simulate(model, 5.0, rng)
+    with pytest.raises(ValueError, match="us must have T - 1"):
+        bf.models.simulate(model, 5, rng, us=np.zeros((2, 1)))
+    with pytest.raises(ValueError, match="no control matrix B"):
+        bf.models.simulate(bf.models.damped_particle(), 5, rng, us=np.zeros((4, 2)))
+    with pytest.raises(TypeError, match="model"):
+        bf.models.simulate("model", 5, rng)
+    with pytest.raises(ValueError, match="x0"):
+        bf.models.simulate(model, 5, rng, x0=[1.0, 2.0, 3.0])
+
+
+# --------------------------------------------------------------------------
+# Sampling: Monte Carlo moments against the formulas
+# --------------------------------------------------------------------------
+
+N = 200_000
+
+
+def test_sample_initial_moments():
+    model = small_model()
+    xs = model.sample_initial(np.random.default_rng(1), N)
+    assert xs.shape == (N, 2)
+    np.testing.assert_allclose(xs.mean(axis=0), model.m0, atol=0.01)
+    np.testing.assert_allclose(np.cov(xs.T), model.P0, atol=0.01)
+
+
+def test_sample_transition_moments():
+    model = small_model()
+    x, u = np.array([1.0, 2.0]), np.array([0.5])
+    draws = model.sample_transition(np.random.default_rng(2), np.tile(x, (N, 1)), u)
+    np.testing.assert_allclose(draws.mean(axis=0), model.A @ x + model.B @ u, atol=0.01)
+    # G Q G^T = 0.3 [[0.25, 0.5], [0.5, 1]] (singular: one noise drives both components)
+    np.testing.assert_allclose(np.cov(draws.T), 0.3 * np.array([[0.25, 0.5], [0.5, 1.0]]),
+                               atol=0.01)
+    one = model.sample_transition(np.random.default_rng(2), x, u)
+    assert one.shape == (2,)
+
+
+def test_sample_measurement_moments():
+    model = bf.models.damped_particle(meas_var=0.5)
+    x = np.array([1.0, 2.0, 3.0, 4.0])
+    draws = model.sample_measurement(np.random.default_rng(3), np.tile(x, (N, 1)))
+    np.testing.assert_allclose(draws.mean(axis=0), [1.0, 3.0], atol=0.01)
+    np.testing.assert_allclose(np.cov(draws.T), 0.5 * np.eye(2), atol=0.01)
+
+
+def test_sampling_rejects_bad_rng_and_shapes():
+    model = small_model()
+    with pytest.raises(TypeError, match="rng"):
+        model.sample_initial(np.random.RandomState(0), 3)
+    with pytest.raises(ValueError, match="xs must have shape"):
+        model.sample_transition(np.random.default_rng(0), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="u"):
+        model.sample_transition(np.random.default_rng(0), np.zeros(2), u=[1.0, 2.0])
+
+
+# --------------------------------------------------------------------------
+# Densities
+# --------------------------------------------------------------------------
+
+def test_measurement_logpdf_equals_scipy():
+    model = bf.models.damped_particle(meas_var=0.7)
+    xs = np.random.default_rng(4).standard_normal((6, 4))
+    y = np.array([0.3, -0.2])
+    ref = [multivariate_normal(model.C @ x, model.R).logpdf(y) for x in xs]
+    np.testing.assert_allclose(model.measurement_logpdf(y, xs), ref, rtol=1e-12)
+    one = model.measurement_logpdf(y, xs[0])
+    assert isinstance(one, float)
+    np.testing.assert_allclose(one, ref[0], rtol=1e-12)
+
+
+def test_transition_logpdf_equals_scipy_and_raises_when_singular():
+    model = small_model(G=None, Q=[[0.3, 0.1], [0.1, 0.2]])
+    xs = np.random.default_rng(5).standard_normal((4, 2))
+    x_next = np.array([0.1, 0.4])
+    ref = [multivariate_normal(model.A @ x, model.Q).logpdf(x_next) for x in xs]
+    np.testing.assert_allclose(model.transition_logpdf(x_next, xs), ref, rtol=1e-12)
+    # The damped particle's G Q G^T has rank 2 in 4-D: no density.
+    with pytest.raises(ValueError, match=r"G Q G\^T must be positive definite"):
+        bf.models.damped_particle().transition_logpdf(np.zeros(4), np.zeros((3, 4)))
+
+
+# --------------------------------------------------------------------------
+# Range and bearing (seed 000, section 3)
+# --------------------------------------------------------------------------
+
+def test_wrap_angle():
+    np.testing.assert_allclose(bf.models.wrap_angle([0.0, np.pi, -np.pi, 3 * np.pi / 2, 7.0]),
+                               [0.0, np.pi, np.pi, -np.pi / 2, 7.0 - 2 * np.pi], atol=1e-12)
+
+
+def test_range_bearing_residual_wraps_the_bearing_only():
+    y = np.array([10.0, 3.1])
+    y_pred = np.array([4.0, -3.1])
+    r = bf.models.range_bearing_residual(y, y_pred)
+    np.testing.assert_allclose(r, [6.0, 6.2 - 2 * np.pi], atol=1e-12)
+    model = bf.models.range_bearing()
+    np.testing.assert_allclose(model.residual(y, y_pred), r)
+    # batch of rows
+    rs = bf.models.range_bearing_residual(np.tile(y, (3, 1)), np.tile(y_pred, (3, 1)))
+    np.testing.assert_allclose(rs, np.tile(r, (3, 1)), atol=1e-12)
+
+
+def test_range_bearing_measurement_uses_atan2():
+    model = bf.models.range_bearing()
+    # A point in the third quadrant: arctan(r_y / r_x) would give +pi/4.
+    y = model.measurement_mean(np.array([-3.0, -3.0, 0.0, 0.0]))
+    np.testing.assert_allclose(y, [np.sqrt(18.0), -3 * np.pi / 4], atol=1e-12)
+    np.testing.assert_allclose(bf.models.RANGE_BEARING_TRUE_START, [10.0, -5.0, -0.2, 0.2])
