@@ -352,8 +352,9 @@ class NonlinearGaussian(_ModelBase):
         Their Jacobians, (n,) -> (n, n) and (n,) -> (m, n).
     Q, R, m0, P0, G
         As in :class:`LinearGaussian`.
-    residual : callable, optional
-        ``residual(y, y_pred)`` -> innovation, acting on the last axis;
+    residual_fn : callable, optional
+        ``residual_fn(y, y_pred)`` -> innovation, acting on the last axis
+        (exposed as the method ``model.residual``);
         defaults to subtraction. An angle measurement needs wrapping
         (see :func:`range_bearing_residual`).
 

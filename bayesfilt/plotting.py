@@ -194,7 +194,8 @@ def plot_belief_step(ax, grid, prior, likelihood, posterior, truth=None, unit: s
     width = float(np.min(np.diff(grid))) if n > 1 else 1.0
     ax.bar(grid, prior, width=width, color="tab:orange", alpha=0.5, label="prior")
     scale = posterior.max() / likelihood.max() if likelihood.max() > 0 else 0.0
-    ax.plot(grid, likelihood * scale, "-", color="tab:green", lw=1.2, label="likelihood (scaled)")
+    # A likelihood on a grid is constant over each cell: draw it as steps, like the beliefs.
+    ax.step(grid, likelihood * scale, where="mid", color="tab:green", lw=1.2, label="likelihood (scaled)")
     ax.step(grid, posterior, where="mid", color="tab:blue", lw=1.5, label="posterior")
     if truth is not None:
         ax.axvline(float(truth), color="k", ls="--", lw=1.0, label="true state")

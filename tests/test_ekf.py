@@ -173,8 +173,6 @@ def test_equals_filterpy_kalman_filter_on_linear_model():
 
 
 def test_equals_bayesfilt_kalman_filter_on_linear_model():
-    if not hasattr(bf.kalman, "kalman_filter"):
-        pytest.skip("bf.kalman.kalman_filter not available yet")
     model, ys = _linear_ys()
     ours = bf.ekf.extended_kalman_filter(bf.models.to_nonlinear(model), ys)
     ref = bf.kalman.kalman_filter(model, ys)
