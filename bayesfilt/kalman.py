@@ -57,9 +57,9 @@ so ``pred_means[0] = m0``, ``pred_covs[0] = P0`` and ``means[t]`` is
 filterpy map (``filterpy.kalman.KalmanFilter``): ``A`` = ``F``, ``C`` =
 ``H``, ``R`` = ``R``, ``B`` = ``B``, ``m0``/``P0`` = initial ``x``/``P``,
 and filterpy has no ``G``: its ``Q`` is the course's :math:`G Q G^T`.
-filterpy predicts *before* it updates, so to reproduce :func:`kalman_filter`
-start it at ``x = m0, P = P0``, call ``update(ys[0])`` first, then
-``predict(); update(ys[t])`` for t = 1, 2, ...
+filterpy's usual loop calls ``predict()`` then ``update()``; to reproduce
+:func:`kalman_filter` start it at ``x = m0, P = P0``, call ``update(ys[0])``
+first, then ``predict(); update(ys[t])`` for t = 1, 2, ...
 """
 
 from __future__ import annotations
@@ -68,6 +68,7 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy import linalg as sla
+from scipy.linalg.lapack import dposv as _dposv
 
 from ._checks import as_array, as_covariance, as_matrix, as_square, as_vector
 from .models import LinearGaussian
@@ -167,13 +168,12 @@ def _update(x, P, y, C, R, eye_n):
     PCt = P @ C.T
     # S = C P C^T + R
     S = C @ PCt + R
-    try:
-        L = np.linalg.cholesky(S)
-    except np.linalg.LinAlgError:
+    # K = P C^T S^{-1}: solve S [K^T, S^{-1} r] = [C P, r] with the Cholesky factor
+    # L of S (LAPACK dposv: factor and solve in one call, info > 0 if S is not PD)
+    L, sol, info = _dposv(S, np.concatenate((PCt.T, r[:, None]), axis=1), lower=1)
+    if info != 0:
         raise ValueError("innovation covariance S = C P C^T + R is not positive definite "
-                         "(R must be positive definite, or C P C^T must make up for it)") from None
-    # K = P C^T S^{-1}: solve S [K^T, S^{-1} r] = [C P, r] in one call (no inverse)
-    sol = np.linalg.solve(S, np.concatenate((PCt.T, r[:, None]), axis=1))
+                         "(R must be positive definite, or C P C^T must make up for it)")
     K = sol[:, :-1].T
     # x_{t|t} = x_{t|t-1} + K r
     x = x + K @ r
@@ -424,15 +424,16 @@ def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
     """
     n, m, T = A.shape[0], C.shape[0], observed.shape[0]
     eye_n = np.eye(n)
+    At, Ct = A.T, C.T
     mats = [P0]                 # every distinct covariance, indexed by the steps
     gains, Ss, chols = [], [], []
-    pred_idx = np.empty(T, dtype=np.intp)
-    post_idx = np.empty(T, dtype=np.intp)
-    upd_idx = np.zeros(T, dtype=np.intp)
+    pred_idx = [0] * T
+    post_idx = [0] * T
+    upd_idx = [0] * T
     P, i = P0, 0
     last_pred = None  # (P_{t-1|t-1} it was computed from, index of the P_{t|t-1} it gave)
     last_upd = None   # (P_{t|t-1} it was computed from, update index, index of P_{t|t})
-    for t in range(T):
+    for t, obs in enumerate(observed.tolist()):
         if t > 0:
             if last_pred is not None and P is last_pred[0]:
                 i = last_pred[1]
@@ -440,32 +441,34 @@ def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
             else:
                 P_post = P
                 # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
-                P = A @ P @ A.T + GQGt
-                P = 0.5 * (P + P.T)
+                # (symmetrised with all the others after the loop)
+                P = A @ P @ At + GQGt
                 mats.append(P)
                 i = len(mats) - 1
                 last_pred = (P_post, i)
         pred_idx[t] = i
-        if observed[t]:
-            if last_upd is not None and (P is last_upd[0] or (P == last_upd[0]).all()):
+        if obs:
+            if last_upd is not None and (P is last_upd[0] or (
+                    P[0, 0] == last_upd[0][0, 0] and (P == last_upd[0]).all())):
                 u, i = last_upd[1], last_upd[2]
                 last_upd = (P, u, i)
                 P = mats[i]
             else:
                 P_pred = P
-                PCt = P @ C.T
+                PCt = P @ Ct
                 # S = C P C^T + R
                 S = C @ PCt + R
-                try:
-                    L = np.linalg.cholesky(S)
-                except np.linalg.LinAlgError:
+                # K = P C^T S^{-1}: solve S K^T = C P via the Cholesky factor L of S
+                # (LAPACK dposv: factor and solve in one call; info > 0 if S is not PD)
+                L, Kt, info = _dposv(S, PCt.T, lower=1)
+                if info != 0:
                     raise ValueError("innovation covariance S = C P C^T + R is not positive "
-                                     f"definite at time step {t}") from None
-                # K = P C^T S^{-1}: solve S K^T = C P (no inverse)
-                K = np.linalg.solve(S, PCt.T).T
+                                     f"definite at time step {t}")
+                K = Kt.T
                 IKC = eye_n - K @ C
                 # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
-                P = IKC @ P @ IKC.T + K @ R @ K.T
+                P = IKC @ P @ IKC.T + K @ R @ Kt
+                # symmetric in exact arithmetic; make it so before it is propagated
                 P = 0.5 * (P + P.T)
                 gains.append(K)
                 Ss.append(S)
@@ -476,14 +479,17 @@ def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
             upd_idx[t] = u
         post_idx[t] = i
     mats = np.stack(mats)
+    # every covariance returned is exactly symmetric
+    mats = 0.5 * (mats + _swap(mats))
     S_t = np.full((T, m, m), np.nan)
     gains_t = np.zeros((T, n, m))
     chols_t = np.zeros((T, m, m))
     if gains:
-        u = upd_idx[observed]
+        u = np.asarray(upd_idx)[observed]
         S_t[observed] = np.stack(Ss)[u]
         gains_t[observed] = np.stack(gains)[u]
-        chols_t[observed] = np.stack(chols)[u]
+        # dposv leaves S's entries above the diagonal of its factor: keep L only
+        chols_t[observed] = np.tril(np.stack(chols))[u]
     return _finish(mats[post_idx], mats[pred_idx], S_t, gains_t, chols_t, observed)
 
 
@@ -539,17 +545,19 @@ def _covariance_pass_many(A, C, R, GQGt, P0, patterns) -> _Covariances:
 
 
 def _step_logliks(chol_inv, log_dets, observed, innovations) -> np.ndarray:
-    """log N(r_t; 0, S_t) where observed, 0 elsewhere.
+    """log N(r_t; 0, S_t) where observed, 0 elsewhere (time-major arrays).
 
-    innovations (..., T, m); chol_inv (T, m, m) shared, or (..., T, m, m).
+    ``innovations`` (T, m) with ``chol_inv`` (T, m, m); or (T, M, m) with
+    ``chol_inv`` (T, m, m) shared by the M sequences or (T, M, m, m).
+    ``log_dets`` and ``observed`` have the shape of ``innovations`` without m.
+    NaN innovations of missing rows give NaN here and are replaced by 0.
     """
     m = innovations.shape[-1]
-    r = np.where(observed[..., None], innovations, 0.0)
     # z = L^{-1} r, so that r^T S^{-1} r = z^T z
-    if chol_inv.ndim == 3:
-        z = np.einsum("tij,...tj->...ti", chol_inv, r, optimize=True)
+    if chol_inv.ndim == innovations.ndim + 1:
+        z = (chol_inv @ innovations[..., None])[..., 0]
     else:
-        z = np.matmul(chol_inv, r[..., None])[..., 0]
+        z = innovations @ _swap(chol_inv)
     maha = z[..., 0] ** 2
     for j in range(1, m):
         maha += z[..., j] ** 2
@@ -654,8 +662,8 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     The covariances, gains and innovation covariances of a Kalman filter do
     not depend on the measured *values*, only on which rows are missing. So
     they are computed once for every distinct missing-data pattern, and only
-    the means are propagated for all M sequences together, each step a
-    couple of (M, n) matrix products. This is what makes many Monte Carlo
+    the means are propagated for all M sequences together, each step one
+    (M, n) x (n, n) matrix product. This is what makes many Monte Carlo
     runs cheap (NEES/NIS consistency checks, chapter 03). The result equals
     M calls of :func:`kalman_filter` to rounding.
 
@@ -697,42 +705,58 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     else:
         cov = _covariance_pass_many(A, C, model.R, GQGt, model.P0, patterns)
 
-    means = np.empty((M, T, n))
-    pred_means = np.empty((M, T, n))
+    # The means. Written as one linear recursion per step,
+    #   x_{t|t} = (I - K_t C) (A x_{t-1|t-1} + B u_{t-1}) + K_t y_t,
+    # which is seed 000's x_{t|t-1} + K_t (y_t - C x_{t|t-1}) with the prediction
+    # substituted; everything that does not depend on x is computed for all
+    # steps and sequences at once, so the loop over t is one small product.
+    # A missing row has K_t = 0 (its NaN measurement is replaced by 0 first).
+    # Arrays are time-major (T, M, n) inside, so each step touches contiguous memory.
+    y0 = ys if observed.all() else np.where(observed[..., None], ys, 0.0)
+    y_tm = y0.transpose(1, 0, 2)
+    eye_n = np.eye(n)
     if D == 1:
-        gains_t = _swap(cov.gains[0]).copy()     # (T, m, n): K_t^T shared by all sequences
-        obs_list = patterns[0].tolist()
+        K = cov.gains[0]                                   # (T, n, m), shared
+        IKC = eye_n - K @ C                                # (T, n, n)
+        # c_t = K_t y_t (+ (I - K_t C) B u_{t-1}), accumulated in place in x_tm
+        x_tm = y_tm @ _swap(K)
+        if Bus is not None:
+            Bu_tm = Bus[:, None, :] if Bus.ndim == 2 else Bus.transpose(1, 0, 2)
+            x_tm[1:] += Bu_tm @ _swap(IKC[1:])
+        # F_t^T = ((I - K_t C) A)^T, right-multiplying the rows of X
+        Ft = _swap(IKC @ A)
+        x_tm[0] += model.m0 @ IKC[0].T
+        for t in range(1, T):
+            x_tm[t] += x_tm[t - 1] @ Ft[t]
     else:
-        gains_seq = cov.gains[which]             # (M, T, n, m)
-        obs_list = observed.any(axis=0).tolist()
-    x = np.broadcast_to(model.m0, (M, n))
-    for t in range(T):
-        if t > 0:
-            # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}   (rows are sequences: X A^T)
-            x = x @ At
-            if Bus is not None:
-                x = x + Bus[..., t - 1, :]
-        pred_means[:, t] = x
-        if obs_list[t]:
-            # r = y_t - C x_{t|t-1}
-            r = ys[:, t] - x @ Ct
-            # x_{t|t} = x_{t|t-1} + K_t r
-            if D == 1:
-                x = x + r @ gains_t[t]
-            else:
-                # a missing row has K_t = 0; its r (NaN) is replaced by 0 so that x stays put
-                r = np.where(observed[:, t, None], r, 0.0)
-                x = x + (gains_seq[:, t] @ r[:, :, None])[:, :, 0]
-        means[:, t] = x
+        K = cov.gains[which].transpose(1, 0, 2, 3)         # (T, M, n, m)
+        IKC = eye_n - K @ C                                # (T, M, n, n)
+        x_tm = (K @ y_tm[..., None])[..., 0]               # (T, M, n)
+        if Bus is not None:
+            Bu_tm = Bus[:, None, :] if Bus.ndim == 2 else Bus.transpose(1, 0, 2)
+            x_tm[1:] += (IKC[1:] @ Bu_tm[..., None])[..., 0]
+        F = IKC @ A
+        x_tm[0] += IKC[0] @ model.m0
+        for t in range(1, T):
+            x_tm[t] += (F[t] @ x_tm[t - 1, :, :, None])[..., 0]
+    # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}, x_{0|-1} = m0
+    pred_tm = np.empty((T, M, n))
+    pred_tm[0] = model.m0
+    np.matmul(x_tm[:-1], At, out=pred_tm[1:])
+    if Bus is not None:
+        pred_tm[1:] += Bus[:, None, :] if Bus.ndim == 2 else Bus.transpose(1, 0, 2)
     # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
-    innovations = ys - pred_means @ C.T
+    innov_tm = pred_tm @ C.T
+    np.subtract(ys.transpose(1, 0, 2), innov_tm, out=innov_tm)
+    means, pred_means, innovations = (a.transpose(1, 0, 2) for a in (x_tm, pred_tm, innov_tm))
     if D == 1:
-        step_logliks = _step_logliks(cov.chol_inv[0], cov.log_dets[0], observed, innovations)
+        step_logliks = _step_logliks(cov.chol_inv[0], cov.log_dets[0][:, None], observed.T,
+                                     innov_tm).T
         covs, pred_covs, S, gains = (np.broadcast_to(a[0], (M,) + a.shape[1:])
                                      for a in (cov.covs, cov.pred_covs, cov.S, cov.gains))
     else:
-        step_logliks = _step_logliks(cov.chol_inv[which], cov.log_dets[which], observed,
-                                     innovations)
+        step_logliks = _step_logliks(cov.chol_inv[which].transpose(1, 0, 2, 3),
+                                     cov.log_dets[which].T, observed.T, innov_tm).T
         covs, pred_covs, S, gains = (a[which] for a in (cov.covs, cov.pred_covs, cov.S,
                                                         cov.gains))
         for a in (covs, pred_covs, S, gains):

@@ -354,6 +354,18 @@ def test_batch_equals_per_sequence_different_patterns():
     _compare_batch(model, ys, us[0])     # shared inputs
 
 
+def test_batch_with_inputs_one_pattern_and_few_patterns():
+    rng = np.random.default_rng(13)
+    model = random_model(rng, 4, 2, q=2, p=1)
+    us = rng.standard_normal((3, 24, 1))
+    ys = np.stack([bf.models.simulate(model, 25, rng, us=us[i]).ys for i in range(3)])
+    _compare_batch(model, ys, us)          # one pattern, per-sequence inputs
+    _compare_batch(model, ys, us[1])       # one pattern, shared inputs
+    ys[2, 7] = np.nan
+    _compare_batch(model, ys, us)          # two patterns
+    _compare_batch(model, ys, us[0])
+
+
 def test_batch_equals_per_sequence_few_patterns(particle):
     """2-4 distinct patterns take another code path (one recursion per pattern)."""
     model, _ = particle
@@ -493,6 +505,16 @@ def test_bad_filter_arguments(particle):
         bf.kalman.kalman_filter(pushed, ys, np.full((len(ys) - 1, 2), np.nan))
     with pytest.raises(ValueError, match="us must have shape"):
         bf.kalman.batch_kalman_filter(pushed, np.stack([ys, ys]), np.zeros((3, len(ys) - 1, 2)))
+
+
+def test_singular_innovation_covariance_names_the_step():
+    # Noise-free x_0 measured exactly: after step 0, P = 0 and S = C P C^T + R = 0.
+    model = bf.models.LinearGaussian(A=[[1.0]], C=[[1.0]], Q=[[0.0]], R=[[0.0]], m0=[0.0],
+                                     P0=[[1.0]])
+    with pytest.raises(ValueError, match="innovation covariance S .* time step 1"):
+        bf.kalman.kalman_filter(model, np.zeros((3, 1)))
+    with pytest.raises(ValueError, match="innovation covariance S .* time step 1"):
+        bf.kalman.batch_kalman_filter(model, np.zeros((2, 3, 1)))
 
 
 def test_bad_step_arguments():
