@@ -60,6 +60,7 @@ import numpy as np
 
 from ._checks import (as_covariance, as_int, as_matrix, as_rng, as_vector,
                       check_callable)
+from .gaussian import _factor as _noise_factor  # L L^T = cov, also for a singular cov
 
 __all__ = [
     "LinearGaussian",
@@ -80,15 +81,6 @@ LOG_2PI = np.log(2.0 * np.pi)
 # --------------------------------------------------------------------------
 # Gaussian helpers shared by both model classes
 # --------------------------------------------------------------------------
-
-def _noise_factor(cov: np.ndarray) -> np.ndarray:
-    """A matrix L with L L^T = cov, also for a singular (PSD) cov."""
-    try:
-        return np.linalg.cholesky(cov)
-    except np.linalg.LinAlgError:
-        vals, vecs = np.linalg.eigh(cov)
-        return vecs * np.sqrt(np.clip(vals, 0.0, None))
-
 
 def _gaussian_logpdf(residuals: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
     """log N(r; 0, cov) for each row r of ``residuals`` (N, m)."""
