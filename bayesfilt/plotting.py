@@ -19,6 +19,7 @@ from matplotlib.patches import Ellipse
 from ._checks import as_array, as_covariance, as_positive_float, as_vector
 
 __all__ = [
+    "use_course_style",
     "covariance_ellipse",
     "plot_track",
     "plot_estimate",
@@ -27,6 +28,30 @@ __all__ = [
     "plot_belief_step",
     "belief_image",
 ]
+
+
+#: The look shared by every chapter (applied by :func:`use_course_style`).
+COURSE_STYLE = {
+    "figure.dpi": 90,
+    "figure.figsize": (8.0, 3.2),
+    "font.size": 10,
+    "axes.titlesize": "medium",
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "legend.fontsize": "small",
+    "legend.framealpha": 0.85,
+}
+
+
+def use_course_style() -> None:
+    """Apply the course's matplotlib settings (size, resolution, grid, fonts).
+
+    Every notebook calls this once in its first cell, so that all chapters
+    look alike and their stored figures stay small.
+    """
+    import matplotlib as mpl
+
+    mpl.rcParams.update(COURSE_STYLE)
 
 
 def _label(name: str, unit: str) -> str:
