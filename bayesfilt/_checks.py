@@ -32,13 +32,23 @@ def _describe(a) -> str:
 
 
 def as_array(name: str, value, *, ndim: int | None = None, finite: bool = True) -> np.ndarray:
-    """Return ``value`` as a float array, checking its number of dimensions."""
+    """Return ``value`` as a float array, checking its number of dimensions.
+
+    Booleans, strings, complex numbers and ragged lists are rejected with a
+    ``TypeError``: numpy would otherwise convert some of them silently.
+    """
     if value is None:
         raise TypeError(f"{name} must be an array of numbers, got None")
     try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be an array of numbers, got {type(value).__name__}") from exc
+        raw = np.asarray(value)
+    except ValueError as exc:  # ragged nested lists
+        raise TypeError(f"{name} must be a rectangular array of numbers, got a ragged "
+                        f"{type(value).__name__}") from exc
+    if raw.dtype.kind not in "iuf":
+        what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes",
+                "O": "objects (a ragged or mixed sequence?)"}.get(raw.dtype.kind, str(raw.dtype))
+        raise TypeError(f"{name} must be an array of real numbers, got {what}")
+    a = raw.astype(float, copy=False)
     if ndim is not None and a.ndim != ndim:
         raise ValueError(f"{name} must be {ndim}-dimensional, got {_describe(a)}")
     if finite and not np.all(np.isfinite(a)):
@@ -61,6 +71,8 @@ def as_vector(name: str, value, size: int | None = None, *, finite: bool = True)
                          f"got {_describe(a)}")
     if size is not None and a.shape[0] != size:
         raise ValueError(f"{name} must have shape ({size},), got shape {a.shape}")
+    if a.shape[0] == 0:
+        raise ValueError(f"{name} must not be empty, got shape {a.shape}")
     return a
 
 
@@ -74,8 +86,11 @@ def as_matrix(name: str, value, shape: tuple[int | None, int | None] | None = No
     if a.ndim == 0 and shape is not None and all(s in (None, 1) for s in shape):
         a = a.reshape(1, 1)
     if a.ndim != 2:
-        want = "(" + ", ".join("?" if s is None else str(s) for s in shape) + ")" if shape else "2-D"
-        raise ValueError(f"{name} must be a matrix of shape {want}, got {_describe(a)}")
+        want = ("of shape (" + ", ".join("?" if s is None else str(s) for s in shape) + ")"
+                if shape else "(2-D)")
+        raise ValueError(f"{name} must be a matrix {want}, got {_describe(a)}")
+    if 0 in a.shape:
+        raise ValueError(f"{name} must not be empty, got shape {a.shape}")
     if shape is not None:
         for axis, want in enumerate(shape):
             if want is not None and a.shape[axis] != want:
@@ -111,12 +126,20 @@ def as_covariance(name: str, value, size: int | None = None, *, definite: bool =
         for the smallest eigenvalue.
     """
     a = as_square(name, value, size)
-    scale = max(float(np.max(np.abs(a))), 1e-300) if a.size else 1.0
-    asym = float(np.max(np.abs(a - a.T))) if a.size else 0.0
+    scale = max(float(np.max(np.abs(a))), 1e-300)
+    asym = float(np.max(np.abs(a - a.T)))
     if asym > rtol * scale:
         raise ValueError(f"{name} must be symmetric, got max |{name} - {name}^T| = {asym:.3g}")
-    eig_min = float(np.linalg.eigvalsh(0.5 * (a + a.T)).min()) if a.size else 0.0
-    if eig_min < -rtol * scale * max(a.shape[0], 1):
+    # Rounding moves an eigenvalue by about n eps |a|; allow a few thousand times that,
+    # but no variance may be negative, however large the other entries are.
+    tol = 1e-12 * scale * a.shape[0]
+    diag = np.diag(a)
+    if np.any(diag < -tol):
+        i = int(np.argmin(diag))
+        raise ValueError(f"{name} must be positive semi-definite, got a negative variance "
+                         f"{name}[{i}, {i}] = {diag[i]:.3g}")
+    eig_min = float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
+    if eig_min < -tol:
         raise ValueError(f"{name} must be positive semi-definite, got smallest eigenvalue {eig_min:.3g}")
     if definite and eig_min <= rtol * scale:
         raise ValueError(f"{name} must be positive definite (invertible), "
@@ -126,7 +149,9 @@ def as_covariance(name: str, value, size: int | None = None, *, definite: bool =
 
 def as_int(name: str, value, *, minimum: int | None = None) -> int:
     """Return ``value`` as a Python int, rejecting floats and bools."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()  # a 0-d array counts as its scalar
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
     value = int(value)
     if minimum is not None and value < minimum:
@@ -136,7 +161,9 @@ def as_int(name: str, value, *, minimum: int | None = None) -> int:
 
 def as_positive_float(name: str, value, *, allow_zero: bool = False) -> float:
     """Return ``value`` as a finite float > 0 (>= 0 with ``allow_zero``)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()  # a 0-d array counts as its scalar
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
     value = float(value)
     if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):

@@ -64,6 +64,7 @@ __all__ = [
 ]
 
 ROW_SUM_ATOL = 1e-9
+MAX_KERNEL_HALF_WIDTH = 1_000_000
 
 
 class BayesUpdate(NamedTuple):
@@ -104,11 +105,13 @@ def _as_belief(name: str, belief, n: int | None = None) -> np.ndarray:
     if np.any(b < 0):
         i = int(np.argmin(b))
         raise ValueError(f"{name} must be non-negative, got {name}[{i}] = {b[i]:.3g}")
-    total = b.sum()
-    if total <= 0:
+    peak = b.max()
+    if peak <= 0:
         raise ValueError(f"{name} must have positive total mass, got all zeros")
-    # Unnormalised beliefs are accepted: only their shape matters.
-    return b / total
+    # Unnormalised beliefs are accepted: only their shape matters. Dividing by the
+    # largest entry first keeps the sum from overflowing for huge counts.
+    b = b / peak
+    return b / b.sum()
 
 
 def _as_transition(name: str, transition, n: int | None = None) -> np.ndarray:
@@ -307,7 +310,10 @@ def shift_transition(n: int, kernel, offset: int = 0, cyclic: bool = True) -> np
     k = as_vector("kernel", kernel)
     if k.shape[0] % 2 == 0:
         raise ValueError(f"kernel must have odd length (a centre cell), got length {k.shape[0]}")
-    if np.any(k < 0) or abs(k.sum() - 1.0) > ROW_SUM_ATOL:
+    if np.any(k < 0):
+        i = int(np.argmin(k))
+        raise ValueError(f"kernel must be non-negative, got kernel[{i}] = {k[i]:.3g}")
+    if abs(k.sum() - 1.0) > ROW_SUM_ATOL:
         raise ValueError(f"kernel must be non-negative and sum to 1, got sum {k.sum():.6g}")
     centre = k.shape[0] // 2
     T = np.zeros((n, n))
@@ -340,6 +346,9 @@ def gaussian_kernel(std: float, half_width: int | None = None) -> np.ndarray:
     std = as_positive_float("std", std)
     half_width = int(np.ceil(4 * std)) if half_width is None else as_int("half_width", half_width,
                                                                           minimum=0)
+    if half_width > MAX_KERNEL_HALF_WIDTH:
+        raise ValueError(f"half_width must be at most {MAX_KERNEL_HALF_WIDTH} cells (a kernel wider "
+                         f"than any sensible grid), got {half_width} (std = {std:.3g} cells)")
     edges = (np.arange(-half_width, half_width + 2) - 0.5) / std
     probs = np.diff(ndtr(edges))
     return probs / probs.sum()

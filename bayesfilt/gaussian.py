@@ -63,9 +63,17 @@ __all__ = [
     "sample",
     "squared_mahalanobis",
     "chi2_interval",
+    "Interval",
 ]
 
 LOG_2PI = np.log(2.0 * np.pi)
+
+
+class Interval(NamedTuple):
+    """A two-sided interval ``(low, high)``."""
+
+    low: float
+    high: float
 
 
 class Gaussian(NamedTuple):
@@ -253,7 +261,7 @@ def squared_mahalanobis(diffs, covs) -> np.ndarray:
     Returns
     -------
     ndarray, shape (...)
-        The broadcast leading shape (a 0-d array for a single pair).
+        The broadcast leading shape (a numpy scalar for a single pair).
 
     Raises
     ------
@@ -274,9 +282,13 @@ def squared_mahalanobis(diffs, covs) -> np.ndarray:
     except ValueError:
         raise ValueError(f"leading axes of diffs {d.shape[:-1]} and covs {P.shape[:-2]} "
                          "do not broadcast") from None
-    asym = np.max(np.abs(P - np.swapaxes(P, -1, -2))) if P.size else 0.0
-    if asym > 1e-9 * max(float(np.max(np.abs(P))), 1e-300):
-        raise ValueError(f"covs must be symmetric, got max |P - P^T| = {asym:.3g}")
+    # Symmetry relative to each matrix's own scale, so a large matrix in the batch
+    # cannot hide an asymmetric small one.
+    asym = np.max(np.abs(P - np.swapaxes(P, -1, -2)), axis=(-2, -1))
+    scale = np.maximum(np.max(np.abs(P), axis=(-2, -1)), 1e-300)
+    if np.any(asym > 1e-9 * scale):
+        worst = float(np.max(asym / scale))
+        raise ValueError(f"covs must be symmetric, got max |P - P^T| / max |P| = {worst:.3g}")
     try:
         L = np.linalg.cholesky(P)
     except np.linalg.LinAlgError:
@@ -289,7 +301,7 @@ def squared_mahalanobis(diffs, covs) -> np.ndarray:
     return np.sum(z * z, axis=-1)
 
 
-def chi2_interval(dof: int, n_runs: int = 1, confidence: float = 0.95) -> tuple[float, float]:
+def chi2_interval(dof: int, n_runs: int = 1, confidence: float = 0.95) -> Interval:
     r"""Two-sided interval for the *average* of ``n_runs`` independent :math:`\chi^2(\text{dof})`.
 
     The sum of ``n_runs`` independent :math:`\chi^2(\text{dof})` values is
@@ -308,7 +320,7 @@ def chi2_interval(dof: int, n_runs: int = 1, confidence: float = 0.95) -> tuple[
 
     Returns
     -------
-    (float, float)
+    Interval
         ``(low, high)``; the average lies inside with probability ``confidence``.
     """
     dof = as_int("dof", dof, minimum=1)
@@ -322,4 +334,4 @@ def chi2_interval(dof: int, n_runs: int = 1, confidence: float = 0.95) -> tuple[
     alpha = 1.0 - confidence
     low = stats.chi2.ppf(0.5 * alpha, total) / n_runs
     high = stats.chi2.ppf(1.0 - 0.5 * alpha, total) / n_runs
-    return float(low), float(high)
+    return Interval(float(low), float(high))

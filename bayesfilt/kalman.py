@@ -147,6 +147,16 @@ class SteadyState(NamedTuple):
     gain: np.ndarray
 
 
+def _require_finite(where: str, **arrays) -> None:
+    """ValueError naming the first output that overflowed (and its first index)."""
+    for name, a in arrays.items():
+        bad = ~np.isfinite(a)
+        if bad.any():
+            index = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(f"{where}: {name} overflowed to a non-finite value at index {index}; "
+                             "the model or the data are too large for floating point")
+
+
 # --------------------------------------------------------------------------
 # Unchecked kernels: the filters validate once, then call these every step.
 # --------------------------------------------------------------------------
@@ -242,7 +252,9 @@ def predict(x, P, A, Q, G=None, B=None, u=None) -> Prediction:
         Bu = B @ as_vector("u", u, B.shape[1])
     elif B is not None:
         as_matrix("B", B, (n, None))
-    mean, cov = _predict(x, P, A, GQGt, Bu)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        mean, cov = _predict(x, P, A, GQGt, Bu)
+    _require_finite("kalman.predict", mean=mean, cov=cov)
     return Prediction(mean, cov)
 
 
@@ -303,7 +315,10 @@ def update(x, P, y, C, R) -> Update:
     m = C.shape[0]
     y = as_vector("y", y, m)
     R = as_covariance("R", R, m)
-    return Update(*_update(x, P, y, C, R, np.eye(n)))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        out = Update(*_update(x, P, y, C, R, np.eye(n)))
+    _require_finite("kalman.update", mean=out.mean, cov=out.cov, loglik=out.loglik)
+    return out
 
 
 # --------------------------------------------------------------------------
@@ -613,7 +628,8 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     Bus = _check_inputs(model, us, T, None)
     A, C = model.A, model.C
     GQGt = model.G @ model.Q @ model.G.T
-    cov = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below
+        cov = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
 
     gains = cov.gains
     means = np.empty((T, n))
@@ -634,6 +650,8 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
     innovations = ys - pred_means @ C.T
     step_logliks = _step_logliks(cov.chol_inv, cov.log_dets, observed, innovations)
+    # NaN is legitimate only in the innovations of missing rows; anything else overflowed.
+    _require_finite("kalman_filter", means=means, covs=cov.pred_covs, step_logliks=step_logliks)
     return FilterResult(means, cov.covs, pred_means, cov.pred_covs, innovations, cov.S,
                         gains, step_logliks, float(step_logliks.sum()), observed)
 
@@ -688,15 +706,24 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
         memory (copy with ``np.array`` to modify).
     """
     _check_model(model)
-    n, m = model.state_dim, model.obs_dim
-    ys = _as_ys(ys, m, batched=True)
+    ys = _as_ys(ys, model.obs_dim, batched=True)
     M, T = ys.shape[:2]
     observed = _check_observations(ys, "sequence, time step")
     Bus = _check_inputs(model, us, T, M)
-    A, C = model.A, model.C
-    At, Ct = A.T, C.T
-    GQGt = model.G @ model.Q @ model.G.T
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        result = _batch_run(model, ys, observed, Bus)
+    _require_finite("batch_kalman_filter", means=result.means, covs=result.pred_covs,
+                    step_logliks=result.step_logliks)
+    return result
 
+
+def _batch_run(model: LinearGaussian, ys, observed, Bus) -> FilterResult:
+    """:func:`batch_kalman_filter` after validation."""
+    n = model.state_dim
+    M, T = ys.shape[:2]
+    A, C = model.A, model.C
+    At = A.T
+    GQGt = model.G @ model.Q @ model.G.T
     patterns, which = _missing_patterns(observed)
     D = patterns.shape[0]
     if D <= _FEW_PATTERNS:

@@ -5,13 +5,14 @@ prior. In the course notation of seed 000,
 
 .. math::
 
-    x_{t+1} = f(x_t) + G w_t + B u_t, \qquad w_t \sim \mathcal N(0, Q),
+    x_{t+1} = f(x_t) + G w_t, \qquad w_t \sim \mathcal N(0, Q),
 
     y_t = h(x_t) + v_t, \qquad v_t \sim \mathcal N(0, R),
 
     x_0 \sim \mathcal N(m_0, P_0),
 
-with the linear case :math:`f(x) = A x`, :math:`h(x) = C x`. The time
+with the linear case :math:`f(x) = A x + B u_t`, :math:`h(x) = C x` (a known
+control input :math:`u_t` enters only the linear model). The time
 convention is seed 000's: the first measurement ``ys[0]`` already measures
 :math:`x_0`.
 
@@ -58,8 +59,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ._checks import (as_covariance, as_int, as_matrix, as_rng, as_vector,
-                      check_callable)
+from ._checks import (as_array, as_covariance, as_int, as_matrix, as_positive_float, as_rng,
+                      as_vector, check_callable)
 from .gaussian import _factor as _noise_factor  # L L^T = cov, also for a singular cov
 
 __all__ = [
@@ -97,14 +98,24 @@ def _gaussian_logpdf(residuals: np.ndarray, cov: np.ndarray, name: str) -> np.nd
 
 def _as_states(name: str, xs, n: int) -> tuple[np.ndarray, bool]:
     """Accept one state (n,) or a batch (N, n); return (batch, was_single)."""
-    a = np.asarray(xs, dtype=float)
+    a = as_array(name, xs)
+    if a.ndim == 0 and n == 1:
+        return a.reshape(1, 1), True
     if a.ndim == 1 and a.shape[0] == n:
         return a[None, :], True
-    if a.ndim == 2 and a.shape[1] == n:
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"{name} must be finite, got NaN or inf")
+    if a.ndim == 2 and a.shape[1] == n and a.shape[0] >= 1:
         return a, False
     raise ValueError(f"{name} must have shape ({n},) or (N, {n}), got shape {a.shape}")
+
+
+def _checked_output(what: str, out, shape: tuple[int, ...]) -> np.ndarray:
+    """What a user function returned, required to be a finite float array of ``shape``."""
+    out = np.asarray(out, dtype=float)
+    if out.shape != shape:
+        raise ValueError(f"{what} must return shape {shape}, got shape {out.shape}")
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"{what} returned non-finite values (NaN or inf)")
+    return out
 
 
 def _freeze(a: np.ndarray) -> np.ndarray:
@@ -141,7 +152,18 @@ class _ModelBase:
     # --- the three pieces a particle filter needs -------------------------
 
     def sample_initial(self, rng: np.random.Generator, size: int) -> np.ndarray:
-        """Draw ``size`` initial states :math:`x_0 \\sim N(m_0, P_0)`, shape (size, n)."""
+        """Draw ``size`` initial states :math:`x_0 \\sim N(m_0, P_0)`.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+        size : int
+            Number of draws (particles), >= 1.
+
+        Returns
+        -------
+        ndarray, shape (size, n)
+        """
         rng = as_rng("rng", rng)
         size = as_int("size", size, minimum=1)
         z = rng.standard_normal((size, self.state_dim))
@@ -199,17 +221,35 @@ class _ModelBase:
         return float(out[0]) if single else out
 
     def transition_logpdf(self, x_next, xs, u=None) -> np.ndarray:
-        """:math:`\\log p(x_{t+1} \\mid x_t)` for every row pair; shape (N,).
+        """:math:`\\log p(x_{t+1} \\mid x_t, u_t)`, the density a proposal other than the prior needs.
 
-        ``x_next`` is (n,) (one target for every row of ``xs``) or (N, n).
-        Raises ``ValueError`` when :math:`G Q G^T` is singular: the transition
-        then has no density on the whole state space (the damped particle's
-        positions move deterministically given the velocities).
+        Parameters
+        ----------
+        x_next : array_like, shape (n,) or (N, n)
+            Next states; one row is compared with every row of ``xs``.
+        xs : array_like, shape (n,) or (N, n)
+            Current states; one row is compared with every row of ``x_next``.
+        u : array_like, shape (p,), optional
+            Known control input (linear models with ``B`` only).
+
+        Returns
+        -------
+        ndarray, shape (N,), or float for a single pair.
+
+        Raises
+        ------
+        ValueError
+            When :math:`G Q G^T` is singular: the transition then has no
+            density on the whole state space (the damped particle's positions
+            move deterministically given the velocities).
         """
         batch, single = _as_states("xs", xs, self.state_dim)
         nxt, _ = _as_states("x_next", x_next, self.state_dim)
+        if nxt.shape[0] != 1 and batch.shape[0] == 1:
+            batch, single = np.repeat(batch, nxt.shape[0], axis=0), False  # one x_t, many x_{t+1}
         if nxt.shape[0] not in (1, batch.shape[0]):
-            raise ValueError(f"x_next must have 1 or {batch.shape[0]} rows, got {nxt.shape[0]}")
+            raise ValueError(f"x_next and xs must have the same number of rows (or one of them "
+                             f"a single state), got {nxt.shape[0]} and {batch.shape[0]}")
         cov = self.G @ self.Q @ self.G.T
         out = _gaussian_logpdf(nxt - self.transition_mean(batch, u), cov, "G Q G^T")
         return float(out[0]) if single else out
@@ -281,7 +321,7 @@ class LinearGaussian(_ModelBase):
     B: np.ndarray | None = None
 
     def __post_init__(self):
-        A = as_matrix("A", self.A)
+        A = as_matrix("A", self.A, (None, None))
         if A.shape[0] != A.shape[1]:
             raise ValueError(f"A must be square (n, n), got shape {A.shape}")
         n = A.shape[0]
@@ -374,6 +414,10 @@ class NonlinearGaussian(_ModelBase):
         n = m0.shape[0]
         self._check_noise_and_prior(n)
         m = self.R.shape[0]
+        h_size = np.shape(self.h(self.m0.copy()))
+        if len(h_size) == 1 and h_size[0] != m:
+            raise ValueError(f"R must be ({h_size[0]}, {h_size[0]}) to match the {h_size[0]} values "
+                             f"h returns, got shape {self.R.shape}")
         pair = np.stack([self.m0, self.m0])
         for name, fun, single, batch in (("f", self.f, (n,), (2, n)),
                                          ("h", self.h, (m,), (2, m))):
@@ -393,30 +437,36 @@ class NonlinearGaussian(_ModelBase):
         if u is not None:
             raise ValueError("NonlinearGaussian takes no control input u")
         batch, single = _as_states("xs", xs, self.state_dim)
-        out = np.asarray(self.f(batch), dtype=float)
+        out = _checked_output("f", self.f(batch), batch.shape)
         return out[0] if single else out
 
     def measurement_mean(self, xs) -> np.ndarray:
         """:math:`h(x)` of each row of ``xs``."""
         batch, single = _as_states("xs", xs, self.state_dim)
-        out = np.asarray(self.h(batch), dtype=float)
+        out = _checked_output("h", self.h(batch), (batch.shape[0], self.obs_dim))
         return out[0] if single else out
 
     def residual(self, y, y_pred) -> np.ndarray:
         """Innovation: ``residual_fn(y, y_pred)`` if given, else ``y - y_pred``."""
+        y, y_pred = np.asarray(y, float), np.asarray(y_pred, float)
         if self.residual_fn is None:
             return super().residual(y, y_pred)
-        return np.asarray(self.residual_fn(np.asarray(y, float), np.asarray(y_pred, float)))
+        shape = np.broadcast_shapes(y.shape, y_pred.shape)
+        return _checked_output("residual_fn", self.residual_fn(y, y_pred), shape)
 
 
 def to_nonlinear(model: LinearGaussian) -> NonlinearGaussian:
     """The same linear model written as a :class:`NonlinearGaussian` (f = A x, h = C x).
 
     Useful to check that an EKF reduces to the Kalman filter on a linear model.
-    A control matrix B is not carried over.
+    :class:`NonlinearGaussian` takes no control input, so a model with a
+    control matrix B is refused rather than silently stripped of it.
     """
     if not isinstance(model, LinearGaussian):
         raise TypeError(f"model must be a LinearGaussian, got {type(model).__name__}")
+    if model.B is not None:
+        raise ValueError("model has a control matrix B, which NonlinearGaussian cannot carry; "
+                         "build the model without B (u = 0) to compare with an EKF")
     A, C = model.A, model.C
     return NonlinearGaussian(f=lambda x: x @ A.T, F=lambda x: A.copy(),
                              h=lambda x: x @ C.T, H=lambda x: C.copy(),
@@ -473,7 +523,11 @@ def simulate(model, T: int, rng: np.random.Generator, us=None, x0=None) -> Simul
     xs = np.empty((T, n))
     xs[0] = model.sample_initial(rng, 1)[0] if x0 is None else as_vector("x0", x0, n)
     for t in range(T - 1):
-        xs[t + 1] = model.sample_transition(rng, xs[t], None if us is None else us[t])
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+            xs[t + 1] = model.sample_transition(rng, xs[t], None if us is None else us[t])
+        if not np.all(np.isfinite(xs[t + 1])):
+            raise ValueError(f"the simulated state diverged (non-finite) at step t = {t + 1}: "
+                             "check that the model is stable over T steps")
     ys = model.sample_measurement(rng, xs)
     return Simulation(xs, ys)
 
@@ -511,6 +565,9 @@ def damped_particle(force_var: float = 0.01, meas_var: float = 1.0, damping: flo
     B : array_like, shape (4, p), optional
         Control matrix for a known push, e.g. ``G`` to push on the velocities.
     """
+    force_var = as_positive_float("force_var", force_var)
+    meas_var = as_positive_float("meas_var", meas_var)
+    damping = as_positive_float("damping", damping, allow_zero=True)
     A = np.array([[1.0, 1.0, 0.0, 0.0],
                   [0.0, damping, 0.0, 0.0],
                   [0.0, 0.0, 1.0, 1.0],
@@ -522,15 +579,32 @@ def damped_particle(force_var: float = 0.01, meas_var: float = 1.0, damping: flo
 
 
 def wrap_angle(angle):
-    r"""Wrap angles into :math:`(-\pi, \pi]` (element-wise)."""
-    angle = np.asarray(angle, dtype=float)
+    r"""Wrap angles into :math:`(-\pi, \pi]` (element-wise).
+
+    Parameters
+    ----------
+    angle : float or array_like
+        Angles in radians, finite.
+
+    Returns
+    -------
+    ndarray (same shape)
+        :math:`\pi - ((\pi - a) \bmod 2\pi)`, so that :math:`\pi` maps to
+        :math:`\pi` and :math:`-\pi` to :math:`\pi`.
+    """
+    angle = as_array("angle", angle)
     return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
 
 
 def range_bearing_residual(y, y_pred) -> np.ndarray:
     """Range-bearing innovation: plain difference for the range, wrapped for the bearing."""
-    r = np.asarray(y, dtype=float) - np.asarray(y_pred, dtype=float)
+    y, y_pred = as_array("y", y), as_array("y_pred", y_pred)
+    for name, a in (("y", y), ("y_pred", y_pred)):
+        if a.ndim == 0 or a.shape[-1] != 2:
+            raise ValueError(f"{name} must have shape (..., 2) (range, bearing), got shape {a.shape}")
+    r = y - y_pred
     r = np.array(r, dtype=float)  # writable copy
+    # the bearing difference is an angle: wrap it into (-pi, pi]
     r[..., 1] = wrap_angle(r[..., 1])
     return r
 
@@ -559,7 +633,28 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
     The filter prior is Kay's: ``m0 = [5, 5, 0, 0]``, ``P0 = 100 I``. The true
     vehicle starts at :data:`RANGE_BEARING_TRUE_START` (pass it as ``x0`` to
     :func:`simulate`).
+
+    Parameters
+    ----------
+    velocity_var : float
+        Variance of the random change of each velocity per step (Kay: 1e-4).
+    range_var, bearing_var : float
+        Measurement-noise variances of the range (m^2) and bearing (rad^2).
+    m0 : array_like, shape (4,)
+        Filter prior mean.
+    prior_var : float
+        Filter prior variance of every state component (``P0 = prior_var I``).
+
+    Returns
+    -------
+    NonlinearGaussian
+        With ``residual_fn`` = :func:`range_bearing_residual`.
     """
+    velocity_var = as_positive_float("velocity_var", velocity_var)
+    range_var = as_positive_float("range_var", range_var)
+    bearing_var = as_positive_float("bearing_var", bearing_var)
+    prior_var = as_positive_float("prior_var", prior_var)
+    m0 = as_vector("m0", m0, 4)
     A = np.array([[1.0, 0.0, 1.0, 0.0],
                   [0.0, 1.0, 0.0, 1.0],
                   [0.0, 0.0, 1.0, 0.0],
@@ -588,5 +683,5 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
 
     return NonlinearGaussian(f=f, F=F, h=h, H=H, Q=velocity_var * np.eye(2),
                              R=np.diag([range_var, bearing_var]),
-                             m0=np.asarray(m0, dtype=float), P0=prior_var * np.eye(4), G=G,
+                             m0=m0, P0=prior_var * np.eye(4), G=G,
                              residual_fn=range_bearing_residual)

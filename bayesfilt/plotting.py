@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.patches import Ellipse
 
-from ._checks import as_array, as_covariance, as_positive_float, as_vector
+from ._checks import as_array, as_covariance, as_int, as_positive_float, as_vector
 
 __all__ = [
     "use_course_style",
@@ -52,6 +52,13 @@ def use_course_style() -> None:
     import matplotlib as mpl
 
     mpl.rcParams.update(COURSE_STYLE)
+
+
+def _as_std(std, size: int) -> np.ndarray:
+    std = as_vector("std", std, size)
+    if np.any(std < 0):
+        raise ValueError(f"std must be non-negative (standard deviations), got min {std.min():.3g}")
+    return std
 
 
 def _label(name: str, unit: str) -> str:
@@ -104,9 +111,14 @@ def plot_track(ax, truth_xy, meas_xy=None, est_xy=None, covs_xy=None, every: int
     truth = as_array("truth_xy", truth_xy, ndim=2)
     if truth.shape[1] != 2:
         raise ValueError(f"truth_xy must have shape (T, 2), got shape {truth.shape}")
+    every = as_int("every", every, minimum=1)
+    if covs_xy is not None and est_xy is None:
+        raise ValueError("covs_xy needs est_xy: the ellipses are centred on the estimates")
     ax.plot(truth[:, 0], truth[:, 1], "k-", lw=1.5, label="truth")
     if meas_xy is not None:
         meas = as_array("meas_xy", meas_xy, ndim=2, finite=False)
+        if meas.shape[1] != 2:
+            raise ValueError(f"meas_xy must have shape (T, 2), got shape {meas.shape}")
         ax.plot(meas[:, 0], meas[:, 1], ".", color="tab:gray", ms=3, alpha=0.7, label="measurements")
     if est_xy is not None:
         est = as_array("est_xy", est_xy, ndim=2)
@@ -118,8 +130,11 @@ def plot_track(ax, truth_xy, meas_xy=None, est_xy=None, covs_xy=None, every: int
             if covs.shape != (truth.shape[0], 2, 2):
                 raise ValueError(f"covs_xy must have shape ({truth.shape[0]}, 2, 2), "
                                  f"got shape {covs.shape}")
-            for t in range(0, truth.shape[0], max(int(every), 1)):
-                covariance_ellipse(ax, est[t], covs[t], n_std, color="tab:blue", alpha=0.6, lw=0.8)
+            for t in range(0, truth.shape[0], every):
+                try:
+                    covariance_ellipse(ax, est[t], covs[t], n_std, color="tab:blue", alpha=0.6, lw=0.8)
+                except ValueError as exc:
+                    raise ValueError(f"covs_xy[{t}]: {exc}") from None
     ax.set_xlabel(_label("position $x^1$", unit))
     ax.set_ylabel(_label("position $x^2$", unit))
     ax.set_aspect("equal", adjustable="datalim")
@@ -138,7 +153,8 @@ def plot_estimate(ax, t, truth, mean, std, n_std: float = 2.0, label: str = "", 
     t = as_vector("t", t)
     truth = as_vector("truth", truth, t.shape[0])
     mean = as_vector("mean", mean, t.shape[0])
-    std = as_vector("std", std, t.shape[0])
+    std = _as_std(std, t.shape[0])
+    n_std = as_positive_float("n_std", n_std)
     ax.plot(t, truth, "k-", lw=1.2, label="truth")
     ax.plot(t, mean, "-", color="tab:blue", lw=1.2, label="estimate")
     ax.fill_between(t, mean - n_std * std, mean + n_std * std, color="tab:blue", alpha=0.2,
@@ -156,7 +172,8 @@ def plot_error(ax, t, error, std, n_std: float = 2.0, label: str = "error", unit
     """
     t = as_vector("t", t)
     error = as_vector("error", error, t.shape[0])
-    std = as_vector("std", std, t.shape[0])
+    std = _as_std(std, t.shape[0])
+    n_std = as_positive_float("n_std", n_std)
     ax.plot(t, error, "-", color="tab:red", lw=1.0, label=label)
     ax.fill_between(t, -n_std * std, n_std * std, color="tab:blue", alpha=0.2,
                     label=f"$\\pm{n_std:g}\\sigma$ (filter)")
@@ -213,6 +230,8 @@ def plot_belief_step(ax, grid, prior, likelihood, posterior, truth=None, unit: s
     """
     grid = as_vector("grid", grid)
     n = grid.shape[0]
+    if n > 1 and np.any(np.diff(grid) <= 0):
+        raise ValueError("grid must be strictly increasing")
     prior = as_vector("prior", prior, n)
     likelihood = as_vector("likelihood", likelihood, n)
     posterior = as_vector("posterior", posterior, n)
@@ -223,7 +242,8 @@ def plot_belief_step(ax, grid, prior, likelihood, posterior, truth=None, unit: s
     ax.step(grid, likelihood * scale, where="mid", color="tab:green", lw=1.2, label="likelihood (scaled)")
     ax.step(grid, posterior, where="mid", color="tab:blue", lw=1.5, label="posterior")
     if truth is not None:
-        ax.axvline(float(truth), color="k", ls="--", lw=1.0, label="true state")
+        truth = float(as_vector("truth", truth, 1)[0])
+        ax.axvline(truth, color="k", ls="--", lw=1.0, label="true state")
     ax.set_xlabel(_label("state $x$", unit))
     ax.set_ylabel("probability")
     ax.legend(loc="best", fontsize="small")
@@ -246,6 +266,7 @@ def belief_image(ax, grid, beliefs, truth=None, title: str = "", unit: str = "")
         raise ValueError(f"beliefs must have shape (T, {grid.shape[0]}), got shape {b.shape}")
     T = b.shape[0]
     half = 0.5 * (grid[1] - grid[0]) if grid.shape[0] > 1 else 0.5
+    ax.grid(False)  # grid lines would hide faint cells of the image
     image = ax.imshow(b.T, origin="lower", aspect="auto", cmap="Blues",
                       extent=(-0.5, T - 0.5, grid[0] - half, grid[-1] + half))
     if truth is not None:

@@ -548,3 +548,19 @@ def test_bad_step_arguments():
         bf.kalman.update(x, P, [np.nan], C, R)
     with pytest.raises(ValueError, match="innovation covariance S"):
         bf.kalman.update(x, np.zeros((2, 2)), [1.0], C, np.zeros((1, 1)))
+
+
+# --------------------------------------------------------------------------
+# Overflow is reported, never returned as NaN (API review)
+# --------------------------------------------------------------------------
+
+def test_overflow_is_an_error_not_nan():
+    eye = np.eye(2)
+    with pytest.raises(ValueError, match="kalman.update: mean overflowed"):
+        bf.kalman.update([0.0, 0.0], 1e200 * eye, [0.0, 0.0], 1e200 * eye, eye)
+    model = bf.models.LinearGaussian(A=1e30 * eye, C=eye, Q=eye, R=eye, m0=np.zeros(2), P0=eye)
+    ys = np.r_[np.zeros((1, 2)), np.full((10, 2), np.nan), np.zeros((1, 2))]
+    with pytest.raises(ValueError, match="kalman_filter: .* overflowed"):
+        bf.kalman.kalman_filter(model, ys)
+    with pytest.raises(ValueError, match="batch_kalman_filter: .* overflowed"):
+        bf.kalman.batch_kalman_filter(model, ys[None])

@@ -112,7 +112,7 @@ def test_nonlinear_gaussian_validation():
     with pytest.raises(ValueError, match="row-wise"):
         # works on one state only: returns (2,) for a batch
         bf.models.NonlinearGaussian(**{**ok, "f": lambda x: np.asarray(x, float).ravel()[:2]})
-    with pytest.raises(ValueError, match="h must map shape"):
+    with pytest.raises(ValueError, match="values h returns|h must map shape"):
         bf.models.NonlinearGaussian(**{**ok, "h": lambda x: np.asarray(x, float)})
     with pytest.raises(ValueError, match="Jacobian F"):
         bf.models.NonlinearGaussian(**{**ok, "F": lambda x: np.eye(3)})
@@ -259,3 +259,82 @@ def test_range_bearing_measurement_uses_atan2():
     y = model.measurement_mean(np.array([-3.0, -3.0, 0.0, 0.0]))
     np.testing.assert_allclose(y, [np.sqrt(18.0), -3 * np.pi / 4], atol=1e-12)
     np.testing.assert_allclose(bf.models.RANGE_BEARING_TRUE_START, [10.0, -5.0, -0.2, 0.2])
+
+
+# --------------------------------------------------------------------------
+# Bad input found by the API review: each must raise a clear error, not NaN
+# --------------------------------------------------------------------------
+
+def test_a_negative_variance_is_refused_next_to_a_large_one():
+    with pytest.raises(ValueError, match=r"R must be positive semi-definite, got a negative variance"):
+        bf.models.LinearGaussian(A=np.eye(2), C=np.eye(2), Q=np.eye(2), R=np.diag([1e9, -0.5]),
+                                 m0=np.zeros(2), P0=np.eye(2))
+
+
+@pytest.mark.parametrize("method", ["transition_mean", "measurement_mean"])
+def test_a_nan_state_is_refused(method):
+    model = bf.models.damped_particle()
+    with pytest.raises(ValueError, match="xs must be finite"):
+        getattr(model, method)([np.nan, 0.0, 0.0, 0.0])
+
+
+def test_user_functions_returning_nan_are_named():
+    ok = _pendulum_parts()
+    model = bf.models.NonlinearGaussian(**{**ok, "f": lambda x: np.asarray(x, float) * np.nan
+                                           if np.ndim(x) == 2 else np.asarray(x, float)})
+    with pytest.raises(ValueError, match="f returned non-finite"):
+        model.sample_transition(np.random.default_rng(0), np.zeros((5, 2)))
+
+
+def test_one_state_against_many_next_states():
+    model = small_model(Q=[[0.5]])
+    nxt = np.random.default_rng(0).standard_normal((4, 2))
+    many = model.transition_logpdf(nxt, np.zeros(2))
+    one_by_one = [model.transition_logpdf(row, np.zeros(2)) for row in nxt]
+    np.testing.assert_allclose(many, one_by_one, rtol=1e-13)
+
+
+def test_example_builders_check_their_arguments():
+    with pytest.raises(ValueError, match="force_var must be finite and > 0"):
+        bf.models.damped_particle(force_var=-1.0)
+    with pytest.raises(ValueError, match="damping must be finite"):
+        bf.models.damped_particle(damping=np.nan)
+    with pytest.raises(TypeError, match="damping must be a real number"):
+        bf.models.damped_particle(damping="0.9")
+    with pytest.raises(ValueError, match=r"m0 must have shape \(4,\)"):
+        bf.models.range_bearing(m0=(1.0, 2.0, 3.0))
+    with pytest.raises(ValueError, match="range_var must be finite and > 0"):
+        bf.models.range_bearing(range_var=0.0)
+
+
+def test_angle_helpers_check_their_arguments():
+    with pytest.raises(TypeError, match="angle"):
+        bf.models.wrap_angle(None)
+    with pytest.raises(ValueError, match="angle must be finite"):
+        bf.models.wrap_angle(np.nan)
+    with pytest.raises(ValueError, match=r"y must have shape \(\.\.\., 2\)"):
+        bf.models.range_bearing_residual([1.0], [0.0])
+
+
+def test_to_nonlinear_refuses_a_control_matrix():
+    with pytest.raises(ValueError, match="control matrix B"):
+        bf.models.to_nonlinear(bf.models.damped_particle(B=np.eye(4)))
+
+
+def test_scalar_one_dimensional_model():
+    model = bf.models.LinearGaussian(A=0.9, C=1.0, Q=0.1, R=1.0, m0=0.0, P0=1.0)
+    assert model.A.shape == (1, 1) and model.m0.shape == (1,)
+    xs, ys = bf.models.simulate(model, 5, np.random.default_rng(0))
+    assert xs.shape == (5, 1) and ys.shape == (5, 1)
+
+
+def test_a_diverging_simulation_is_reported():
+    model = bf.models.LinearGaussian(A=[[1e200]], C=[[1.0]], Q=[[1.0]], R=[[1.0]], m0=[1.0], P0=[[1.0]])
+    with pytest.raises(ValueError, match="diverged"):
+        bf.models.simulate(model, 5, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("bad", [[True, False], ["1.0", "2.0"], [1j, 2.0], [[1.0, 2.0], [3.0]]])
+def test_non_numbers_are_refused_with_the_argument_name(bad):
+    with pytest.raises(TypeError, match="m0"):
+        bf.models.LinearGaussian(A=np.eye(2), C=np.eye(2), Q=np.eye(2), R=np.eye(2), m0=bad, P0=np.eye(2))
