@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._checks import as_covariance, as_matrix, as_vector, check_callable
+from ._checks import as_array, as_covariance, as_matrix, as_vector, check_callable
 from .kalman import FilterResult, Prediction, Update
 
 __all__ = ["predict", "update", "extended_kalman_filter", "numerical_jacobian"]
@@ -307,6 +307,8 @@ def extended_kalman_filter(model, ys) -> FilterResult:
                         f"{type(model).__name__} (wrap a linear model with "
                         f"bf.models.to_nonlinear)")
     n, m = model.state_dim, model.obs_dim
+    if m == 1 and np.ndim(ys) == 1:
+        ys = np.asarray(ys)[:, None]  # a scalar measurement per step, as kalman_filter accepts
     ys = as_matrix("ys", ys, (None, m), finite=False)
     T = ys.shape[0]
     if T == 0:
@@ -387,8 +389,8 @@ def numerical_jacobian(fun, x, step=None) -> np.ndarray:
     if step is None:
         steps = np.cbrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
     else:
-        steps = as_vector("step", np.broadcast_to(np.asarray(step, dtype=float), (n,))
-                          if np.ndim(step) == 0 else step, n)
+        steps = as_array("step", step)
+        steps = as_vector("step", np.broadcast_to(steps, (n,)) if steps.ndim == 0 else steps, n)
         if not np.all(steps > 0):
             raise ValueError(f"step must be > 0, got {np.array2string(steps, precision=4)}")
 

@@ -281,3 +281,25 @@ def test_grid_helpers_reject_bad_input():
         bf.bayes.grid_transition([0.0, 1.0], lambda xn, xp: 0.0 * xn * xp)
     with pytest.raises(ValueError, match=r"must return shape \(2, 2\)"):
         bf.bayes.grid_transition([0.0, 1.0], lambda xn, xp: np.ones(3)[:, None] * np.ones(3))
+
+
+def test_huge_counts_are_normalised_without_overflow():
+    prior = bf.bayes.predict([1e308, 1e308, 1.0], np.eye(3))
+    np.testing.assert_allclose(prior, [0.5, 0.5, 0.0], atol=1e-300)
+
+
+def test_negative_kernel_entries_are_named():
+    with pytest.raises(ValueError, match=r"kernel must be non-negative, got kernel\[0\] = -0.5"):
+        bf.bayes.shift_transition(5, [-0.5, 2.0, -0.5])
+
+
+def test_absurd_kernel_width_is_refused():
+    with pytest.raises(ValueError, match="half_width must be at most"):
+        bf.bayes.gaussian_kernel(1e9)
+
+
+def test_bad_types_are_type_errors():
+    with pytest.raises(TypeError, match="likelihood must be an array of real numbers, got booleans"):
+        bf.bayes.update([0.5, 0.5], [True, False])
+    with pytest.raises(ValueError, match="belief must not be empty"):
+        bf.bayes.predict([], np.zeros((0, 0)))

@@ -367,3 +367,12 @@ def test_overflow_is_reported_not_returned():
         bf.ekf.predict(X, P, _ok, lambda x: 1e200 * np.eye(2), Q2)
     with pytest.raises(ValueError, match="ekf.update: the innovation covariance"):
         bf.ekf.update(X, P, [1.5], h1, lambda x: np.array([[1e200, 0.0]]), R1)
+
+
+def test_scalar_measurements_accepted_as_a_vector_and_bad_steps_named():
+    model = bf.models.to_nonlinear(bf.models.LinearGaussian(A=0.9, C=1.0, Q=0.1, R=1.0, m0=0.0, P0=1.0))
+    ys = np.array([0.1, -0.2, 0.3])
+    np.testing.assert_allclose(bf.ekf.extended_kalman_filter(model, ys).means,
+                               bf.ekf.extended_kalman_filter(model, ys[:, None]).means)
+    with pytest.raises(TypeError, match="step must be an array of real numbers"):
+        bf.ekf.numerical_jacobian(np.sin, [0.0], step="a")

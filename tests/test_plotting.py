@@ -67,3 +67,23 @@ def test_plot_helpers_run_on_valid_input(ax):
 def test_bad_input_names_the_argument(ax, call, match):
     with pytest.raises(ValueError, match=match):
         call(ax)
+
+
+@pytest.mark.parametrize("call,match", [
+    (lambda ax: bf.plotting.plot_error(ax, np.arange(3), np.zeros(3), -np.ones(3)), "std must be non-negative"),
+    (lambda ax: bf.plotting.plot_estimate(ax, np.arange(3), np.zeros(3), np.zeros(3), np.ones(3), n_std=0),
+     "n_std must be finite and > 0"),
+    (lambda ax: bf.plotting.plot_track(ax, np.zeros((3, 2)), meas_xy=np.zeros((3, 3))), "meas_xy must have shape"),
+    (lambda ax: bf.plotting.plot_track(ax, np.zeros((3, 2)), covs_xy=np.zeros((3, 2, 2))), "covs_xy needs est_xy"),
+    (lambda ax: bf.plotting.plot_belief_step(ax, [2.0, 1.0], [0.5, 0.5], [1, 1], [0.5, 0.5]), "grid must be"),
+])
+def test_more_bad_input(ax, call, match):
+    with pytest.raises(ValueError, match=match):
+        call(ax)
+
+
+def test_plot_track_names_the_bad_covariance(ax):
+    covs = np.tile(np.eye(2), (3, 1, 1))
+    covs[2] = [[1.0, 2.0], [2.0, 1.0]]
+    with pytest.raises(ValueError, match=r"covs_xy\[2\]"):
+        bf.plotting.plot_track(ax, np.zeros((3, 2)), est_xy=np.zeros((3, 2)), covs_xy=covs, every=1)
