@@ -189,7 +189,9 @@ class _ModelBase:
         rng = as_rng("rng", rng)
         batch, single = _as_states("xs", xs, self.state_dim)
         mean = self.transition_mean(batch, u)
+        # w = L z with L L^T = Q, z ~ N(0, I): one noise draw per particle
         w = rng.standard_normal((batch.shape[0], self.noise_dim)) @ _noise_factor(self.Q).T
+        # x_{t+1} = f(x_t) (+ B u_t) + G w_t
         out = mean + w @ self.G.T
         return out[0] if single else out
 
@@ -197,6 +199,7 @@ class _ModelBase:
         """Draw :math:`y \\sim p(y \\mid x)` for every row of ``xs``; shape (N, m) or (m,)."""
         rng = as_rng("rng", rng)
         batch, single = _as_states("xs", xs, self.state_dim)
+        # y = h(x) + v, v = L z with L L^T = R
         v = rng.standard_normal((batch.shape[0], self.obs_dim)) @ _noise_factor(self.R).T
         out = self.measurement_mean(batch) + v
         return out[0] if single else out
