@@ -23,6 +23,9 @@ __all__ = [
     "as_positive_float",
     "as_rng",
     "check_callable",
+    "as_noise_gain",
+    "check_output",
+    "require_finite",
 ]
 
 
@@ -184,3 +187,38 @@ def check_callable(name: str, fun) -> None:
     """Require ``fun`` to be callable."""
     if not callable(fun):
         raise TypeError(f"{name} must be callable, got {type(fun).__name__}")
+
+
+def as_noise_gain(G, n: int, q: int) -> np.ndarray:
+    """The process-noise gain G (n, q), or the identity when G is None (then Q must be n x n)."""
+    if G is None:
+        if q != n:
+            raise ValueError(f"Q must have shape ({n}, {n}) when G is omitted (G = I), "
+                             f"got shape ({q}, {q})")
+        return np.eye(n)
+    return as_matrix("G", G, (n, q))
+
+
+def check_output(what: str, out, shape: tuple[int, ...], at=None) -> np.ndarray:
+    """What a user function returned, required to be a finite float array of ``shape``.
+
+    ``what`` names the function (e.g. ``"ekf.update: Jacobian H"``); ``at`` is
+    the state it was evaluated at, quoted when the output is not finite.
+    """
+    out = np.asarray(out, dtype=float)
+    if out.shape != shape:
+        raise ValueError(f"{what} must return shape {shape}, got shape {out.shape}")
+    if not np.all(np.isfinite(out)):
+        where = "" if at is None else f" at x = {np.array2string(np.asarray(at), precision=4)}"
+        raise ValueError(f"{what} returned non-finite values (NaN or inf){where}")
+    return out
+
+
+def require_finite(where: str, what: str, a) -> None:
+    """ValueError if a computed result overflowed; names the result and its first bad index."""
+    bad = ~np.isfinite(a)
+    if np.any(bad):
+        index = tuple(int(i) for i in np.argwhere(bad)[0]) if np.ndim(a) else ()
+        raise ValueError(f"{where}: {what} overflowed to a non-finite value"
+                         + (f" at index {index}" if index else "")
+                         + "; the model or the data are too large for floating point")

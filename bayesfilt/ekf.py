@@ -40,42 +40,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._checks import as_array, as_covariance, as_matrix, as_vector, check_callable
-from .kalman import FilterResult, Prediction, Update
+from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_vector, check_callable,
+                      check_output, require_finite)
+from .kalman import FilterResult, Prediction, Update, _correct
 
 __all__ = ["predict", "update", "extended_kalman_filter", "numerical_jacobian"]
 
-LOG_2PI = np.log(2.0 * np.pi)
-
-
-# --------------------------------------------------------------------------
-# Checked calls of user functions: a wrong shape or a NaN stops here, with
-# the name of the function, instead of propagating into the estimate.
-# --------------------------------------------------------------------------
-
 def _call(where: str, name: str, fun, x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """Evaluate ``fun(x)`` and require a finite float array of ``shape``."""
-    out = np.asarray(fun(x.copy()), dtype=float)
-    if out.shape != shape:
-        raise ValueError(f"{where}: {name} must return shape {shape}, got shape {out.shape}")
-    if not np.all(np.isfinite(out)):
-        raise ValueError(f"{where}: {name} returned non-finite values (NaN or inf) "
-                         f"at x = {np.array2string(x, precision=4)}")
-    return out
-
-
-def _require_finite(where: str, what: str, a: np.ndarray) -> None:
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{where}: the {what} overflowed to a non-finite value")
-
-
-def _as_noise_gain(where: str, G, n: int, q: int) -> np.ndarray:
-    if G is None:
-        if q != n:
-            raise ValueError(f"{where}: Q must have shape ({n}, {n}) when G is omitted (G = I), "
-                             f"got shape ({q}, {q})")
-        return np.eye(n)
-    return as_matrix("G", G, (n, q))
+    """Evaluate a user function at ``x``; a wrong shape or a NaN stops here, naming it."""
+    return check_output(f"{where}: {name}", fun(x.copy()), shape, at=x)
 
 
 # --------------------------------------------------------------------------
@@ -132,7 +105,7 @@ def predict(x, P, f, F, Q, G=None) -> Prediction:
     check_callable("f", f)
     check_callable("F", F)
     Q = as_covariance("Q", Q)
-    G = _as_noise_gain("ekf.predict", G, n, Q.shape[0])
+    G = as_noise_gain(G, n, Q.shape[0])
     return _predict(x, P, f, F, G @ Q @ G.T)
 
 
@@ -147,7 +120,7 @@ def _predict(x, P, f, F, GQGt) -> Prediction:
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         P_pred = Fx @ P @ Fx.T + GQGt
     P_pred = 0.5 * (P_pred + P_pred.T)  # remove rounding asymmetry, as bf.kalman does
-    _require_finite("ekf.predict", "predicted covariance F P F^T + G Q G^T", P_pred)
+    require_finite("ekf.predict", "predicted covariance F P F^T + G Q G^T", P_pred)
     return Prediction(x_pred, P_pred)
 
 
@@ -231,34 +204,15 @@ def _update(x, P, y, h, H, R, residual) -> Update:
     else:
         innovation = _call("ekf.update", "residual",
                            lambda _: residual(y.copy(), y_pred.copy()), x, (m,))
-    # S = H P H^T + R
+    # The update itself is the Kalman filter's, with the Jacobian H in place of C:
+    # S = H P H^T + R, K = P H^T S^{-1}, x + K r and the Joseph-form covariance.
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-        S = Hx @ P @ Hx.T + R
-    _require_finite("ekf.update", "innovation covariance S = H P H^T + R", S)
-    S = 0.5 * (S + S.T)
-    try:
-        chol = np.linalg.cholesky(S)
-        singular = np.diag(chol).min() ** 2 <= m * np.finfo(float).eps * np.diag(S).max()
-    except np.linalg.LinAlgError:
-        singular = True
-    if singular:
-        raise ValueError("ekf.update: innovation covariance S = H P H^T + R is singular (not "
-                         "positive definite); give R a positive variance on every "
-                         "measurement component")
-    # K = P H^T S^{-1}, by two triangular solves instead of an inverse
-    PHt = P @ Hx.T
-    K = np.linalg.solve(chol.T, np.linalg.solve(chol, PHt.T)).T
-    # x_{t|t} = x_{t|t-1} + K (y - h(x_{t|t-1}))
-    x_new = x + K @ innovation
-    # P_{t|t} = (I - K H) P (I - K H)^T + K R K^T   (Joseph form)
-    I_KH = np.eye(n) - K @ Hx
-    P_new = I_KH @ P @ I_KH.T + K @ R @ K.T
-    P_new = 0.5 * (P_new + P_new.T)
-    _require_finite("ekf.update", "updated covariance", P_new)
-    # log N(e; 0, S) = -1/2 (e^T S^{-1} e + log det S + m log 2 pi)
-    z = np.linalg.solve(chol, innovation)
-    loglik = -0.5 * (z @ z + 2.0 * np.sum(np.log(np.diag(chol))) + m * LOG_2PI)
-    return Update(x_new, P_new, K, innovation, S, float(loglik))
+        try:
+            x_new, P_new, K, _, S, loglik = _correct(x, P, innovation, Hx, R, np.eye(n))
+        except ValueError as exc:
+            raise ValueError(f"ekf.update: {exc}") from None
+    require_finite("ekf.update", "updated covariance", P_new)
+    return Update(x_new, P_new, K, innovation, S, loglik)
 
 
 # --------------------------------------------------------------------------

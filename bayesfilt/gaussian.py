@@ -200,14 +200,22 @@ def logpdf(x, mean, cov):
         xa = xa.reshape(1)
     if not ((xa.ndim == 1 and xa.shape[0] == n) or (xa.ndim == 2 and xa.shape[1] == n)):
         raise ValueError(f"x must have shape ({n},) or (N, {n}), got shape {xa.shape}")
-    L = _cholesky("cov", cov)
-    d = np.atleast_2d(xa) - mean
-    # z = L^{-1} (x - m), so z^T z = (x - m)^T P^{-1} (x - m)
+    out = _logpdf_rows(np.atleast_2d(xa) - mean, _cholesky("cov", cov))
+    return float(out[0]) if xa.ndim == 1 else out
+
+
+def _logpdf_rows(d: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """log N(d_i; 0, L L^T) for each row d_i of ``d`` (N, n), with L lower triangular.
+
+    The one place the Gaussian log-density is computed: the filters' step
+    log-likelihoods and the models' measurement densities call it too.
+    """
+    # z = L^{-1} d, so z^T z = d^T P^{-1} d (a triangular solve, no inverse)
     z = sla.solve_triangular(L, d.T, lower=True, check_finite=False)
     maha = np.sum(z * z, axis=0)
+    # log det P = 2 sum_i log L_ii
     log_det = 2.0 * np.sum(np.log(np.diag(L)))
-    out = -0.5 * (maha + log_det + n * LOG_2PI)
-    return float(out[0]) if xa.ndim == 1 else out
+    return -0.5 * (maha + log_det + L.shape[0] * LOG_2PI)
 
 
 def sample(rng: np.random.Generator, mean, cov, size: int) -> np.ndarray:

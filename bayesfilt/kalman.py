@@ -70,7 +70,9 @@ import numpy as np
 from scipy import linalg as sla
 from scipy.linalg.lapack import dposv as _dposv
 
-from ._checks import as_array, as_covariance, as_matrix, as_square, as_vector
+from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_square, as_vector,
+                      require_finite)
+from .gaussian import LOG_2PI, _logpdf_rows
 from .models import LinearGaussian
 
 __all__ = [
@@ -84,9 +86,6 @@ __all__ = [
     "batch_kalman_filter",
     "steady_state",
 ]
-
-LOG_2PI = np.log(2.0 * np.pi)
-
 
 class Prediction(NamedTuple):
     """Predicted Gaussian: ``mean`` (n,) and ``cov`` (n, n). Unpacks as ``x, P``."""
@@ -147,16 +146,6 @@ class SteadyState(NamedTuple):
     gain: np.ndarray
 
 
-def _require_finite(where: str, **arrays) -> None:
-    """ValueError naming the first output that overflowed (and its first index)."""
-    for name, a in arrays.items():
-        bad = ~np.isfinite(a)
-        if bad.any():
-            index = tuple(int(i) for i in np.argwhere(bad)[0])
-            raise ValueError(f"{where}: {name} overflowed to a non-finite value at index {index}; "
-                             "the model or the data are too large for floating point")
-
-
 # --------------------------------------------------------------------------
 # Unchecked kernels: the filters validate once, then call these every step.
 # --------------------------------------------------------------------------
@@ -171,29 +160,64 @@ def _predict(x, P, A, GQGt, Bu=None):
     return x, 0.5 * (P + P.T)
 
 
-def _update(x, P, y, C, R, eye_n):
-    m = C.shape[0]
-    # r = y - C x   (innovation)
-    r = y - C @ x
+_EPS = np.finfo(float).eps
+S_NOT_PD = ("innovation covariance S = C P C^T + R (H P H^T + R in the EKF) is singular or not "
+            "positive definite: R needs a positive variance on every measurement component, "
+            "or C P C^T must make up for it")
+
+
+def _swap(a):
+    return np.swapaxes(a, -1, -2)
+
+
+def _gain_and_joseph(P, C, R, eye_n):
+    """Gain and Joseph-form covariance of a measurement update, for P (n, n) or a stack (D, n, n).
+
+    The one place the update's covariance algebra is written; the single step,
+    the covariance passes of the filters and the EKF (with C = H) all call it.
+    Returns K (..., n, m), S (..., m, m), L (..., m, m) whose lower triangle is the
+    Cholesky factor of S (the upper triangle is not cleared), and P_post.
+    Raises ValueError(S_NOT_PD) if S is not safely positive definite.
+    """
     PCt = P @ C.T
     # S = C P C^T + R
     S = C @ PCt + R
-    # K = P C^T S^{-1}: solve S [K^T, S^{-1} r] = [C P, r] with the Cholesky factor
-    # L of S (LAPACK dposv: factor and solve in one call, info > 0 if S is not PD)
-    L, sol, info = _dposv(S, np.concatenate((PCt.T, r[:, None]), axis=1), lower=1)
-    if info != 0:
-        raise ValueError("innovation covariance S = C P C^T + R is not positive definite "
-                         "(R must be positive definite, or C P C^T must make up for it)")
-    K = sol[:, :-1].T
-    # x_{t|t} = x_{t|t-1} + K r
-    x = x + K @ r
-    # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
+    if not np.isfinite(S).all():
+        raise ValueError("innovation covariance S = C P C^T + R overflowed to a non-finite value; "
+                         "the model or the data are too large for floating point")
+    # S is numerically singular when a pivot of its factor L is below the rounding
+    # level of its largest entry.
+    if P.ndim == 2:
+        # One small S: LAPACK dposv factors S = L L^T and solves S K^T = C P in one call
+        # (it leaves S's upper triangle above L: solve with L as lower triangular only).
+        L, Kt, info = _dposv(S, PCt.T, lower=1)
+        singular = info != 0 or min(L.diagonal()) ** 2 <= S.shape[0] * _EPS * max(S.diagonal())
+    else:
+        try:
+            L = np.linalg.cholesky(S)
+        except np.linalg.LinAlgError:
+            raise ValueError(S_NOT_PD) from None
+        singular = (np.diagonal(L, axis1=-2, axis2=-1).min(axis=-1) ** 2
+                    <= S.shape[-1] * _EPS * np.diagonal(S, axis1=-2, axis2=-1).max(axis=-1)).any()
+        # K = P C^T S^{-1}: solve S K^T = C P (no inverse)
+        Kt = np.linalg.solve(S, _swap(PCt))
+    if singular:
+        raise ValueError(S_NOT_PD)
+    K = _swap(Kt)
     IKC = eye_n - K @ C
-    P = IKC @ P @ IKC.T + K @ R @ K.T
-    P = 0.5 * (P + P.T)
-    # log N(r; 0, S) = -(r^T S^{-1} r + log det S + m log 2 pi) / 2,  log det S = 2 sum log L_ii
-    loglik = -0.5 * (r @ sol[:, -1] + 2.0 * np.log(L.diagonal()).sum() + m * LOG_2PI)
-    return x, P, K, r, S, float(loglik)
+    # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
+    P_post = IKC @ P @ _swap(IKC) + K @ R @ Kt
+    return K, S, L, 0.5 * (P_post + _swap(P_post))
+
+
+def _correct(x, P, r, C, R, eye_n):
+    """Measurement update given the innovation r (shared with the EKF, where C is the Jacobian H)."""
+    K, S, L, P_post = _gain_and_joseph(P, C, R, eye_n)
+    # x_{t|t} = x_{t|t-1} + K r
+    x_post = x + K @ r
+    # log N(r; 0, S)
+    loglik = float(_logpdf_rows(r[None, :], L)[0])
+    return x_post, P_post, K, r, S, loglik
 
 
 # --------------------------------------------------------------------------
@@ -236,14 +260,7 @@ def predict(x, P, A, Q, G=None, B=None, u=None) -> Prediction:
     P = as_covariance("P", P, n)
     A = as_square("A", A, n)
     Q = as_covariance("Q", Q)
-    if G is None:
-        if Q.shape[0] != n:
-            raise ValueError(f"Q must have shape ({n}, {n}) when G is omitted (G = I), "
-                             f"got shape {Q.shape}")
-        GQGt = Q
-    else:
-        G = as_matrix("G", G, (n, Q.shape[0]))
-        GQGt = G @ Q @ G.T
+    G = as_noise_gain(G, n, Q.shape[0])
     Bu = None
     if u is not None:
         if B is None:
@@ -253,8 +270,9 @@ def predict(x, P, A, Q, G=None, B=None, u=None) -> Prediction:
     elif B is not None:
         as_matrix("B", B, (n, None))
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-        mean, cov = _predict(x, P, A, GQGt, Bu)
-    _require_finite("kalman.predict", mean=mean, cov=cov)
+        mean, cov = _predict(x, P, A, G @ Q @ G.T, Bu)
+    require_finite("kalman.predict", "mean", mean)
+    require_finite("kalman.predict", "cov", cov)
     return Prediction(mean, cov)
 
 
@@ -316,8 +334,13 @@ def update(x, P, y, C, R) -> Update:
     y = as_vector("y", y, m)
     R = as_covariance("R", R, m)
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-        out = Update(*_update(x, P, y, C, R, np.eye(n)))
-    _require_finite("kalman.update", mean=out.mean, cov=out.cov, loglik=out.loglik)
+        try:
+            # r = y - C x   (innovation)
+            out = Update(*_correct(x, P, y - C @ x, C, R, np.eye(n)))
+        except ValueError as exc:
+            raise ValueError(f"kalman.update: {exc}") from None
+    for what in ("mean", "cov", "loglik"):
+        require_finite("kalman.update", what, getattr(out, what))
     return out
 
 
@@ -336,12 +359,8 @@ def _check_observations(ys: np.ndarray, axis_names: str) -> np.ndarray:
     if np.isfinite(ys).all():
         return np.ones(ys.shape[:-1], dtype=bool)
     nan = np.isnan(ys)
-    # all/any over the short last axis, one column at a time (faster than .all(-1))
-    missing, some = nan[..., 0].copy(), nan[..., 0].copy()
-    for j in range(1, ys.shape[-1]):
-        missing &= nan[..., j]
-        some |= nan[..., j]
-    partly = some & ~missing
+    missing = nan.all(axis=-1)
+    partly = nan.any(axis=-1) & ~missing
     if partly.any():
         where = tuple(int(i) for i in np.argwhere(partly)[0])
         raise ValueError(f"ys row {where if len(where) > 1 else where[0]} ({axis_names}) is "
@@ -417,7 +436,7 @@ def _finish(covs, pred_covs, S, gains, chols, observed) -> _Covariances:
     chol_inv = np.zeros(S.shape)
     log_dets = np.zeros(S.shape[:-2])
     if observed.any():
-        Ls = chols[observed]
+        Ls = np.tril(chols[observed])  # only the lower triangles are the factors
         # L^{-1} from the triangular systems L X = I, once per step, so that
         # r^T S^{-1} r = |L^{-1} r|^2 vectorises over steps and sequences.
         chol_inv[observed] = np.linalg.solve(Ls, np.broadcast_to(np.eye(m), Ls.shape))
@@ -439,7 +458,7 @@ def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
     """
     n, m, T = A.shape[0], C.shape[0], observed.shape[0]
     eye_n = np.eye(n)
-    At, Ct = A.T, C.T
+    At = A.T
     mats = [P0]                 # every distinct covariance, indexed by the steps
     gains, Ss, chols = [], [], []
     pred_idx = [0] * T
@@ -470,21 +489,10 @@ def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
                 P = mats[i]
             else:
                 P_pred = P
-                PCt = P @ Ct
-                # S = C P C^T + R
-                S = C @ PCt + R
-                # K = P C^T S^{-1}: solve S K^T = C P via the Cholesky factor L of S
-                # (LAPACK dposv: factor and solve in one call; info > 0 if S is not PD)
-                L, Kt, info = _dposv(S, PCt.T, lower=1)
-                if info != 0:
-                    raise ValueError("innovation covariance S = C P C^T + R is not positive "
-                                     f"definite at time step {t}")
-                K = Kt.T
-                IKC = eye_n - K @ C
-                # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
-                P = IKC @ P @ IKC.T + K @ R @ Kt
-                # symmetric in exact arithmetic; make it so before it is propagated
-                P = 0.5 * (P + P.T)
+                try:
+                    K, S, L, P = _gain_and_joseph(P, C, R, eye_n)
+                except ValueError as exc:
+                    raise ValueError(f"{exc} (at time step {t})") from None
                 gains.append(K)
                 Ss.append(S)
                 chols.append(L)
@@ -503,13 +511,8 @@ def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
         u = np.asarray(upd_idx)[observed]
         S_t[observed] = np.stack(Ss)[u]
         gains_t[observed] = np.stack(gains)[u]
-        # dposv leaves S's entries above the diagonal of its factor: keep L only
-        chols_t[observed] = np.tril(np.stack(chols))[u]
+        chols_t[observed] = np.stack(chols)[u]
     return _finish(mats[post_idx], mats[pred_idx], S_t, gains_t, chols_t, observed)
-
-
-def _swap(a):
-    return np.swapaxes(a, -1, -2)
 
 
 def _covariance_pass_many(A, C, R, GQGt, P0, patterns) -> _Covariances:
@@ -532,21 +535,10 @@ def _covariance_pass_many(A, C, R, GQGt, P0, patterns) -> _Covariances:
         obs = patterns[:, t]
         if obs.any():
             idx = slice(None) if obs.all() else np.flatnonzero(obs)
-            Pi = P[idx]
-            PCt = Pi @ C.T
-            # S = C P C^T + R
-            S = C @ PCt + R
             try:
-                L = np.linalg.cholesky(S)
-            except np.linalg.LinAlgError:
-                raise ValueError("innovation covariance S = C P C^T + R is not positive "
-                                 f"definite at time step {t}") from None
-            # K = P C^T S^{-1}: solve S K^T = C P (no inverse)
-            K = _swap(np.linalg.solve(S, _swap(PCt)))
-            IKC = eye_n - K @ C
-            # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
-            Pn = IKC @ Pi @ _swap(IKC) + K @ R @ _swap(K)
-            Pn = 0.5 * (Pn + _swap(Pn))
+                K, S, L, Pn = _gain_and_joseph(P[idx], C, R, eye_n)
+            except ValueError as exc:
+                raise ValueError(f"{exc} (at time step {t})") from None
             if isinstance(idx, slice):
                 P = Pn
             else:
@@ -573,9 +565,7 @@ def _step_logliks(chol_inv, log_dets, observed, innovations) -> np.ndarray:
         z = (chol_inv @ innovations[..., None])[..., 0]
     else:
         z = innovations @ _swap(chol_inv)
-    maha = z[..., 0] ** 2
-    for j in range(1, m):
-        maha += z[..., j] ** 2
+    maha = np.sum(z * z, axis=-1)
     # log N(r; 0, S) = -(r^T S^{-1} r + log det S + m log 2 pi) / 2
     return np.where(observed, -0.5 * (maha + log_dets + m * LOG_2PI), 0.0)
 
@@ -629,7 +619,10 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     A, C = model.A, model.C
     GQGt = model.G @ model.Q @ model.G.T
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below
-        cov = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
+        try:
+            cov = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
+        except ValueError as exc:
+            raise ValueError(f"kalman_filter: {exc}") from None
 
     gains = cov.gains
     means = np.empty((T, n))
@@ -651,7 +644,8 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     innovations = ys - pred_means @ C.T
     step_logliks = _step_logliks(cov.chol_inv, cov.log_dets, observed, innovations)
     # NaN is legitimate only in the innovations of missing rows; anything else overflowed.
-    _require_finite("kalman_filter", means=means, covs=cov.pred_covs, step_logliks=step_logliks)
+    for what, a in (("means", means), ("covs", cov.pred_covs), ("step_logliks", step_logliks)):
+        require_finite("kalman_filter", what, a)
     return FilterResult(means, cov.covs, pred_means, cov.pred_covs, innovations, cov.S,
                         gains, step_logliks, float(step_logliks.sum()), observed)
 
@@ -663,15 +657,10 @@ _FEW_PATTERNS = 4
 
 def _missing_patterns(observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distinct rows of ``observed`` (D, T) and, for each sequence, the index of its row."""
-    M = observed.shape[0]
-    if (observed == observed[0]).all():
-        return observed[:1], np.zeros(M, dtype=np.intp)
-    keys: dict[bytes, int] = {}
-    which = np.empty(M, dtype=np.intp)
-    for i, row in enumerate(np.packbits(observed, axis=1)):
-        which[i] = keys.setdefault(row.tobytes(), len(keys))
-    first = np.unique(which, return_index=True)[1]
-    return observed[first], which
+    if (observed == observed[0]).all():  # the common case, and np.unique is slow on it
+        return observed[:1], np.zeros(observed.shape[0], dtype=np.intp)
+    patterns, which = np.unique(observed, axis=0, return_inverse=True)
+    return patterns, which.reshape(-1)
 
 
 def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
@@ -711,9 +700,12 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     observed = _check_observations(ys, "sequence, time step")
     Bus = _check_inputs(model, us, T, M)
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
-        result = _batch_run(model, ys, observed, Bus)
-    _require_finite("batch_kalman_filter", means=result.means, covs=result.pred_covs,
-                    step_logliks=result.step_logliks)
+        try:
+            result = _batch_run(model, ys, observed, Bus)
+        except ValueError as exc:
+            raise ValueError(f"batch_kalman_filter: {exc}") from None
+    for what in ("means", "pred_covs", "step_logliks"):
+        require_finite("batch_kalman_filter", what, getattr(result, what))
     return result
 
 

@@ -59,8 +59,9 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ._checks import (as_array, as_covariance, as_int, as_matrix, as_positive_float, as_rng,
-                      as_vector, check_callable)
+from ._checks import (as_array, as_covariance, as_int, as_matrix, as_noise_gain,
+                      as_positive_float, as_rng, as_vector, check_callable, check_output)
+from .gaussian import _cholesky, _logpdf_rows
 from .gaussian import _factor as _noise_factor  # L L^T = cov, also for a singular cov
 
 __all__ = [
@@ -68,6 +69,7 @@ __all__ = [
     "NonlinearGaussian",
     "Simulation",
     "simulate",
+    "simulate_many",
     "damped_particle",
     "range_bearing",
     "RANGE_BEARING_TRUE_START",
@@ -75,25 +77,6 @@ __all__ = [
     "wrap_angle",
     "to_nonlinear",
 ]
-
-LOG_2PI = np.log(2.0 * np.pi)
-
-
-# --------------------------------------------------------------------------
-# Gaussian helpers shared by both model classes
-# --------------------------------------------------------------------------
-
-def _gaussian_logpdf(residuals: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
-    """log N(r; 0, cov) for each row r of ``residuals`` (N, m)."""
-    try:
-        chol = np.linalg.cholesky(cov)
-    except np.linalg.LinAlgError:
-        raise ValueError(f"{name} must be positive definite to evaluate a log-density") from None
-    # Solve L z = r^T instead of inverting cov: cheaper and better conditioned.
-    z = np.linalg.solve(chol, residuals.T)
-    maha = np.sum(z * z, axis=0)
-    log_det = 2.0 * np.sum(np.log(np.diag(chol)))
-    return -0.5 * (maha + log_det + cov.shape[0] * LOG_2PI)
 
 
 def _as_states(name: str, xs, n: int) -> tuple[np.ndarray, bool]:
@@ -106,16 +89,6 @@ def _as_states(name: str, xs, n: int) -> tuple[np.ndarray, bool]:
     if a.ndim == 2 and a.shape[1] == n and a.shape[0] >= 1:
         return a, False
     raise ValueError(f"{name} must have shape ({n},) or (N, {n}), got shape {a.shape}")
-
-
-def _checked_output(what: str, out, shape: tuple[int, ...]) -> np.ndarray:
-    """What a user function returned, required to be a finite float array of ``shape``."""
-    out = np.asarray(out, dtype=float)
-    if out.shape != shape:
-        raise ValueError(f"{what} must return shape {shape}, got shape {out.shape}")
-    if not np.all(np.isfinite(out)):
-        raise ValueError(f"{what} returned non-finite values (NaN or inf)")
-    return out
 
 
 def _freeze(a: np.ndarray) -> np.ndarray:
@@ -220,7 +193,7 @@ class _ModelBase:
         y = as_vector("y", y, self.obs_dim)
         batch, single = _as_states("xs", xs, self.state_dim)
         residuals = self.residual(y[None, :], self.measurement_mean(batch))
-        out = _gaussian_logpdf(residuals, self.R, "R")
+        out = _logpdf_rows(residuals, _cholesky("R", self.R))
         return float(out[0]) if single else out
 
     def transition_logpdf(self, x_next, xs, u=None) -> np.ndarray:
@@ -254,7 +227,7 @@ class _ModelBase:
             raise ValueError(f"x_next and xs must have the same number of rows (or one of them "
                              f"a single state), got {nxt.shape[0]} and {batch.shape[0]}")
         cov = self.G @ self.Q @ self.G.T
-        out = _gaussian_logpdf(nxt - self.transition_mean(batch, u), cov, "G Q G^T")
+        out = _logpdf_rows(nxt - self.transition_mean(batch, u), _cholesky("G Q G^T", cov))
         return float(out[0]) if single else out
 
     def residual(self, y, y_pred) -> np.ndarray:
@@ -265,13 +238,7 @@ class _ModelBase:
         m0 = as_vector("m0", self.m0, n)
         P0 = as_covariance("P0", self.P0, n)
         Q = as_covariance("Q", self.Q)
-        if self.G is None:
-            if Q.shape[0] != n:
-                raise ValueError(f"Q must have shape ({n}, {n}) when G is omitted (G = I), "
-                                 f"got shape {Q.shape}")
-            G = np.eye(n)
-        else:
-            G = as_matrix("G", self.G, (n, Q.shape[0]))
+        G = as_noise_gain(self.G, n, Q.shape[0])
         R = as_covariance("R", self.R)
         for name, value in (("m0", m0), ("P0", P0), ("Q", Q), ("G", G), ("R", R)):
             object.__setattr__(self, name, _freeze(value))
@@ -440,13 +407,13 @@ class NonlinearGaussian(_ModelBase):
         if u is not None:
             raise ValueError("NonlinearGaussian takes no control input u")
         batch, single = _as_states("xs", xs, self.state_dim)
-        out = _checked_output("f", self.f(batch), batch.shape)
+        out = check_output("f", self.f(batch), batch.shape)
         return out[0] if single else out
 
     def measurement_mean(self, xs) -> np.ndarray:
         """:math:`h(x)` of each row of ``xs``."""
         batch, single = _as_states("xs", xs, self.state_dim)
-        out = _checked_output("h", self.h(batch), (batch.shape[0], self.obs_dim))
+        out = check_output("h", self.h(batch), (batch.shape[0], self.obs_dim))
         return out[0] if single else out
 
     def residual(self, y, y_pred) -> np.ndarray:
@@ -455,7 +422,7 @@ class NonlinearGaussian(_ModelBase):
         if self.residual_fn is None:
             return super().residual(y, y_pred)
         shape = np.broadcast_shapes(y.shape, y_pred.shape)
-        return _checked_output("residual_fn", self.residual_fn(y, y_pred), shape)
+        return check_output("residual_fn", self.residual_fn(y, y_pred), shape)
 
 
 def to_nonlinear(model: LinearGaussian) -> NonlinearGaussian:
@@ -533,6 +500,30 @@ def simulate(model, T: int, rng: np.random.Generator, us=None, x0=None) -> Simul
                              "check that the model is stable over T steps")
     ys = model.sample_measurement(rng, xs)
     return Simulation(xs, ys)
+
+
+def simulate_many(model, M: int, T: int, rng: np.random.Generator, us=None, x0=None) -> Simulation:
+    """``M`` independent runs of :func:`simulate`, stacked for a batched filter or a Monte Carlo study.
+
+    Equal to ``M`` calls of :func:`simulate` with the same generator, one after
+    the other, so the same seed gives the same runs either way.
+
+    Parameters
+    ----------
+    model, T, rng, us, x0
+        As in :func:`simulate`; ``us`` and ``x0`` are shared by all runs.
+    M : int
+        Number of runs (>= 1).
+
+    Returns
+    -------
+    Simulation
+        ``xs`` (M, T, n) and ``ys`` (M, T, m), ready for
+        ``bf.kalman.batch_kalman_filter(model, ys)``.
+    """
+    M = as_int("M", M, minimum=1)
+    runs = [simulate(model, T, rng, us=us, x0=x0) for _ in range(M)]
+    return Simulation(np.stack([run.xs for run in runs]), np.stack([run.ys for run in runs]))
 
 
 # --------------------------------------------------------------------------

@@ -44,14 +44,65 @@ def test_consistency_band_is_the_chi2_interval_of_the_average(ax):
                                rtol=1e-12)
 
 
-def test_plot_helpers_run_on_valid_input(ax):
+def _band(collection, t):
+    """Lower and upper edge of a fill_between band at each time in t, from its vertices."""
+    xy = collection.get_paths()[0].vertices
+    low = np.array([xy[xy[:, 0] == ti, 1].min() for ti in t])
+    high = np.array([xy[xy[:, 0] == ti, 1].max() for ti in t])
+    return low, high
+
+
+def test_plot_helpers_draw_their_data():
+    """Each helper draws the numbers it is given: bands at +-n_std std, lines at the data."""
     t = np.arange(5.0)
-    bf.plotting.plot_estimate(ax, t, t, t + 0.1, np.ones(5), label="position", unit="m")
-    bf.plotting.plot_error(ax, t, 0.1 * t, np.ones(5), unit="m")
-    bf.plotting.plot_track(ax, np.c_[t, t], np.c_[t, t], np.c_[t, t], np.tile(np.eye(2), (5, 1, 1)), every=2)
-    bf.plotting.plot_belief_step(ax, t, np.full(5, 0.2), np.ones(5), np.full(5, 0.2), truth=2)
-    bf.plotting.belief_image(ax, t, np.full((3, 5), 0.2), truth=[0, 1, 2])
-    assert ax.get_xlabel()  # every helper labels its axes
+    std = np.array([0.5, 1.0, 1.5, 2.0, 0.25])
+    truth, mean, error = np.sin(t), np.sin(t) + 0.1, 0.3 * np.cos(t)
+    fig, axes = plt.subplots(2, 3)
+    try:
+        ax = axes[0, 0]
+        bf.plotting.plot_estimate(ax, t, truth, mean, std, n_std=1.5, label="position", unit="m")
+        (band,) = ax.collections
+        np.testing.assert_allclose(_band(band, t), (mean - 1.5 * std, mean + 1.5 * std), rtol=1e-12)
+        np.testing.assert_allclose(ax.lines[0].get_xydata(), np.c_[t, truth])
+        np.testing.assert_allclose(ax.lines[1].get_xydata(), np.c_[t, mean])
+        assert ax.get_xlabel() and ax.get_ylabel().startswith("position")
+
+        ax = axes[0, 1]
+        bf.plotting.plot_error(ax, t, error, std, unit="m")  # default n_std = 2
+        (band,) = ax.collections
+        np.testing.assert_allclose(_band(band, t), (-2.0 * std, 2.0 * std), rtol=1e-12)
+        np.testing.assert_allclose(ax.lines[0].get_xydata(), np.c_[t, error])
+        assert ax.get_xlabel() and ax.get_ylabel()
+
+        ax = axes[0, 2]
+        truth_xy, meas_xy, est_xy = np.c_[t, t**2], np.c_[t + 0.2, t**2 - 0.3], np.c_[t, t**2 + 0.1]
+        covs_xy = np.tile(np.eye(2), (5, 1, 1))
+        bf.plotting.plot_track(ax, truth_xy, meas_xy, est_xy, covs_xy, every=2)
+        for line, want in zip(ax.lines, (truth_xy, meas_xy, est_xy)):
+            np.testing.assert_allclose(line.get_xydata(), want)
+        assert len(ax.patches) == 3  # ellipses at t = 0, 2, 4
+        np.testing.assert_allclose([e.center for e in ax.patches], est_xy[::2])
+        assert ax.get_xlabel() and ax.get_ylabel()
+
+        ax = axes[1, 0]
+        prior, post = np.array([0.1, 0.2, 0.4, 0.2, 0.1]), np.full(5, 0.2)
+        like = np.arange(1.0, 6.0)
+        bf.plotting.plot_belief_step(ax, t, prior, like, post, truth=2)
+        np.testing.assert_allclose([bar.get_height() for bar in ax.containers[0]], prior)
+        scaled, posterior = ax.lines[0], ax.lines[1]
+        np.testing.assert_allclose(posterior.get_ydata(), post)
+        np.testing.assert_allclose(scaled.get_ydata(), like * post.max() / like.max())
+        assert ax.get_xlabel() and ax.get_ylabel()
+
+        ax = axes[1, 1]
+        beliefs = np.random.default_rng(0).dirichlet(np.ones(5), size=3)  # (T, n) = (3, 5)
+        bf.plotting.belief_image(ax, t, beliefs, truth=[0.0, 1.0, 2.0])
+        (image,) = ax.images
+        np.testing.assert_array_equal(np.asarray(image.get_array()), beliefs.T)
+        np.testing.assert_allclose(ax.lines[0].get_xydata(), [[0, 0], [1, 1], [2, 2]])
+        assert ax.get_xlabel() and ax.get_ylabel()
+    finally:
+        plt.close(fig)
 
 
 @pytest.mark.parametrize("call,match", [
