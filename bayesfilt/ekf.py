@@ -234,7 +234,9 @@ def extended_kalman_filter(model, ys) -> FilterResult:
     ----------
     model : bf.models.NonlinearGaussian
         Supplies ``f``, ``F``, ``h``, ``H``, ``Q``, ``R``, ``G``, ``m0``,
-        ``P0`` and ``model.residual``. Wrap a linear model with
+        ``P0`` and ``model.residual``. A time-varying model
+        (``time_varying=True``, e.g. ``bf.models.ungm()``) gets the time index
+        of each step through ``model.transition_functions(t)``. Wrap a linear model with
         ``bf.models.to_nonlinear`` (the EKF then equals the Kalman filter).
     ys : array_like, shape (T, m)
         Measurements.
@@ -285,7 +287,9 @@ def extended_kalman_filter(model, ys) -> FilterResult:
     for t in range(T):
         try:
             if t > 0:
-                x, P = _predict(x, P, model.f, model.F, GQGt)
+                # the step from t - 1 to t (a time-varying model's f and F depend on it)
+                f, F = model.transition_functions(t - 1)
+                x, P = _predict(x, P, f, F, GQGt)
             pred_means[t], pred_covs[t] = x, P
             if observed[t]:
                 up = _update(x, P, ys[t], model.h, model.H, model.R, model.residual)

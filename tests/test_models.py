@@ -280,10 +280,11 @@ def test_a_nan_state_is_refused(method):
 
 def test_user_functions_returning_nan_are_named():
     ok = _pendulum_parts()
-    model = bf.models.NonlinearGaussian(**{**ok, "f": lambda x: np.asarray(x, float) * np.nan
-                                           if np.ndim(x) == 2 else np.asarray(x, float)})
+    # fine near m0 (where the constructor probes it), NaN far away
+    model = bf.models.NonlinearGaussian(**{**ok, "f": lambda x: np.where(
+        np.abs(np.asarray(x, float)) > 100, np.nan, np.asarray(x, float))})
     with pytest.raises(ValueError, match="f returned non-finite"):
-        model.sample_transition(np.random.default_rng(0), np.zeros((5, 2)))
+        model.sample_transition(np.random.default_rng(0), np.full((5, 2), 1e3))
 
 
 def test_one_state_against_many_next_states():
@@ -350,3 +351,77 @@ def test_simulate_many_equals_repeated_simulate():
     assert many.xs.shape == (4, 6, 4) and many.ys.shape == (4, 6, 2)
     with pytest.raises(ValueError, match="M must be >= 1"):
         bf.models.simulate_many(model, 0, 6, np.random.default_rng(3))
+
+
+# --- issue 8: row-wise check, state names; issue 7: time-varying models, UNGM ---
+
+def test_row_wise_check_is_not_fooled_when_n_is_2():
+    # x[0], x[1] index rows of a (2, 2) batch, yet return the right shape (2, 2):
+    # two copies of m0 could not tell; two distinct states do.
+    ok = _pendulum_parts()
+    wrong = lambda x: np.stack([np.asarray(x, float)[1], np.asarray(x, float)[0]])  # noqa: E731
+    with pytest.raises(ValueError, match="f must act row-wise"):
+        bf.models.NonlinearGaussian(**{**ok, "f": wrong})
+    with pytest.raises(ValueError, match="h must act row-wise"):
+        # right for one state, rows swapped for a batch
+        bf.models.NonlinearGaussian(**{**ok, "h": lambda x: np.sin(np.asarray(x, float)[..., :1])
+                                       if np.ndim(x) == 1 else np.sin(np.asarray(x, float)[::-1, :1])})
+
+
+def test_state_names_and_positions_select_by_name():
+    dp, rb = bf.models.damped_particle(), bf.models.range_bearing()
+    xs = np.arange(12.0).reshape(3, 4)
+    # independent reference: the documented column orders of the two seeds
+    np.testing.assert_array_equal(bf.models.positions(dp, xs), xs[:, [0, 2]])
+    np.testing.assert_array_equal(bf.models.positions(rb, xs), xs[:, [0, 1]])
+    assert dp.index_of("x2_dot") == [3] and rb.index_of("v_x") == [2]
+    with pytest.raises(ValueError, match="unknown state component"):
+        dp.index_of("r_x")
+    with pytest.raises(ValueError, match=r"xs must have shape \(\.\.\., 4\)"):
+        bf.models.positions(dp, xs[:, :2])
+    with pytest.raises(ValueError, match="state_names must be 2 distinct strings"):
+        small_model(state_names=("a",))
+    with pytest.raises(ValueError, match="position_names must be two of state_names"):
+        small_model(state_names=("a", "b"), position_names=("a", "c"))
+    assert bf.models.to_nonlinear(dp).position_names == ("x1", "x2")
+
+
+def _ungm_step(x, t):
+    # Arulampalam et al. (2002), eq. for x_k with k = t + 1, written out independently
+    return x / 2 + 25 * x / (1 + x ** 2) + 8 * np.cos(1.2 * (t + 1))
+
+
+def test_ungm_transition_uses_the_time_index():
+    model = bf.models.ungm()
+    xs = np.array([[-3.0], [0.0], [0.5], [7.0]])
+    for t in (0, 1, 5):
+        np.testing.assert_allclose(model.transition_mean(xs, t=t), _ungm_step(xs, t), rtol=1e-14)
+    # f's Jacobian against central differences
+    for x in (-3.0, 0.2, 4.0):
+        num = bf.ekf.numerical_jacobian(lambda z: model.transition_functions(3)[0](z), [x])
+        np.testing.assert_allclose(model.transition_functions(3)[1]([x]), num, rtol=1e-7)
+        np.testing.assert_allclose(model.H([x]), bf.ekf.numerical_jacobian(model.h, [x]), rtol=1e-7)
+    # the transition density is N(f(x, t), 10) with the right t
+    ref = -0.5 * (np.log(2 * np.pi * 10) + (2.0 - _ungm_step(xs[:, 0], 4)) ** 2 / 10)
+    np.testing.assert_allclose(model.transition_logpdf([2.0], xs, t=4), ref, rtol=1e-12)
+
+
+def test_ungm_simulation_follows_the_equations():
+    model = bf.models.ungm()
+    T, M = 6, 4000
+    sims = bf.models.simulate_many(model, M, T, np.random.default_rng(5))
+    # x_{t+1} - f(x_t, t) must be N(0, 10): mean within 5 SE, variance within 5 SE
+    w = sims.xs[:, 1:, 0] - _ungm_step(sims.xs[:, :-1, 0], np.arange(T - 1))
+    se_mean, se_var = np.sqrt(10 / w.size), 10 * np.sqrt(2 / w.size)
+    assert abs(w.mean()) < 5 * se_mean, f"process noise mean {w.mean():.3f} is not 0"
+    assert abs(w.var() - 10) < 5 * se_var, f"process noise variance {w.var():.3f} is not 10"
+    v = sims.ys[..., 0] - sims.xs[..., 0] ** 2 / 20
+    assert abs(v.var() - 1) < 5 * np.sqrt(2 / v.size), f"measurement noise variance {v.var():.3f} is not 1"
+    x0 = sims.xs[:, 0, 0]
+    assert abs(x0.var() - 5) < 5 * 5 * np.sqrt(2 / M), f"prior variance {x0.var():.3f} is not 5"
+
+
+def test_time_varying_flag_is_checked():
+    ok = _pendulum_parts()
+    with pytest.raises(TypeError, match="time_varying must be True or False"):
+        bf.models.NonlinearGaussian(**{**ok, "time_varying": "yes"})
