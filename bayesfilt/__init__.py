@@ -8,6 +8,8 @@ Import it as ``bf`` and reach each concept through its module::
     bf.kalman     # Kalman filter                          -- chapters 02-03
     bf.ekf        # extended Kalman filter                 -- chapter 04
     bf.models     # state-space models and simulation      -- chapters 02-06
+    bf.particle   # particle filters (SIS, bootstrap, SIR) -- chapters 05-06
+    bf.resampling # resampling schemes                     -- chapter 06
     bf.plotting   # plots used by the notebooks
 
 Modules load on first use, so ``import bayesfilt`` stays cheap and does not
@@ -20,7 +22,7 @@ import importlib
 
 __version__ = "0.1.0"
 
-_MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "plotting")
+_MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "particle", "resampling", "plotting")
 __all__ = list(_MODULES)
 
 

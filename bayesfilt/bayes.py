@@ -61,10 +61,14 @@ __all__ = [
     "grid_transition",
     "grid_likelihood",
     "gaussian_likelihood",
+    "GridFilterResult",
+    "grid_filter",
 ]
 
 ROW_SUM_ATOL = 1e-9
 MAX_KERNEL_HALF_WIDTH = 1_000_000
+#: grid_filter refuses a posterior with more than this probability in an end cell.
+EDGE_MASS = 1e-8
 
 
 class BayesUpdate(NamedTuple):
@@ -248,9 +252,15 @@ def bayes_filter(initial_belief, transitions, likelihoods) -> BayesFilterResult:
     if trans.ndim == 2:
         trans = np.broadcast_to(_as_transition("transitions", trans, n), (max(T - 1, 0), n, n))
     elif trans.ndim == 3:
-        if trans.shape[0] not in (T - 1, T) or trans.shape[1:] != (n, n):
+        if trans.shape[1:] != (n, n):
             raise ValueError(f"transitions must have shape ({n}, {n}) or ({T - 1}, {n}, {n}), "
                              f"got shape {trans.shape}")
+        if trans.shape[0] != T - 1:
+            # T matrices for T measurements is the classic off-by-one: y_0 measures x_0
+            # before any move, so only T - 1 moves happen.
+            raise ValueError(f"transitions must hold T - 1 = {T - 1} matrices for T = {T} "
+                             f"likelihoods, got {trans.shape[0]}: ys[0] measures x_0 before any "
+                             f"move, and transitions[t] (selected by u_t) moves x_t to x_(t+1)")
         for t in range(T - 1):
             _as_transition(f"transitions[{t}]", trans[t], n)
     else:
@@ -425,3 +435,129 @@ def _as_grid(grid) -> np.ndarray:
     if g.shape[0] > 1 and np.any(np.diff(g) <= 0):
         raise ValueError("grid must be strictly increasing")
     return g
+
+
+# --------------------------------------------------------------------------
+# An exact reference for one-dimensional continuous models (chapter 06)
+# --------------------------------------------------------------------------
+
+class GridFilterResult(NamedTuple):
+    """Output of :func:`grid_filter`.
+
+    grid (n,); posteriors (T, n): probability of each cell given y_0..y_t;
+    means (T,) and variances (T,) of the posterior; loglik: the grid estimate of
+    log p(y_0, ..., y_{T-1}).
+    """
+
+    grid: np.ndarray
+    posteriors: np.ndarray
+    means: np.ndarray
+    variances: np.ndarray
+    loglik: float
+
+
+def _row_normalised_exp(log_vals: np.ndarray, what: str) -> np.ndarray:
+    m = log_vals.max(axis=1, keepdims=True)
+    if np.any(m == -np.inf):
+        i = int(np.flatnonzero(m[:, 0] == -np.inf)[0])
+        raise ValueError(f"{what} is zero on the whole grid from row {i}: widen the grid")
+    vals = np.exp(log_vals - m)
+    return vals / vals.sum(axis=1, keepdims=True)
+
+
+def grid_filter(model, ys, grid) -> GridFilterResult:
+    r"""The Bayes recursion of a one-dimensional continuous model on a fine grid.
+
+    The grid filter of this chapter applied to a model of ``bf.models``
+    with a scalar state: cell :math:`g_j` carries the probability
+    :math:`p(x_t \approx g_j \mid y_{0:t})`; the transition matrix is the
+    model's transition density between cell centres, each row normalised
+    (``transition[i, j]`` proportional to
+    ``exp(model.transition_logpdf(g_j, g_i, t=t))``), rebuilt at every step
+    for a time-varying model; the likelihood is
+    ``exp(model.measurement_logpdf(y_t, g_j))``. With cells much narrower
+    than the posterior and a grid wider than its support, this is the exact
+    posterior up to a discretisation error that vanishes as the cells shrink:
+    the reference against which a particle filter or an EKF is judged on a
+    one-dimensional nonlinear model (chapter 06).
+
+    Parameters
+    ----------
+    model : bf.models.LinearGaussian or NonlinearGaussian
+        With ``state_dim == 1`` and a transition density (Q > 0).
+    ys : array_like, shape (T, m) or (T,) when m = 1
+        Measurements; ``ys[0]`` measures :math:`x_0`; an all-NaN row is missing.
+    grid : array_like, shape (n,)
+        Equally spaced cell centres, strictly increasing.
+
+    Returns
+    -------
+    GridFilterResult
+
+    Notes
+    -----
+    Cost: an (n, n) transition per step, O(T n^2): n = 1000 cells and
+    T = 50 steps take about a second.
+    """
+    if getattr(model, "state_dim", None) != 1:
+        raise ValueError(f"grid_filter needs a model with a scalar state (state_dim 1), got "
+                         f"{getattr(model, 'state_dim', type(model).__name__)}")
+    g = _as_grid(grid)
+    if g.shape[0] < 2 or not np.allclose(np.diff(g), g[1] - g[0], rtol=1e-6):
+        raise ValueError("grid must be equally spaced with at least 2 cells")
+    m = model.obs_dim
+    if m == 1 and np.ndim(ys) == 1:
+        ys = np.asarray(ys)[:, None]
+    ys = as_array("ys", ys, ndim=2, finite=False)
+    if ys.shape[1] != m or ys.shape[0] == 0:
+        raise ValueError(f"ys must have shape (T, {m}) with T >= 1, got shape {ys.shape}")
+    cells = g[:, None]
+    # p(x_0 = g_j): the prior density at the cell centres, normalised over the grid
+    prior = np.exp(_logpdf_prior(model, g))
+    prior = prior / prior.sum()
+    time_varying = getattr(model, "time_varying", False)
+    trans = None
+    T = ys.shape[0]
+    posteriors, loglik = np.empty((T, g.shape[0])), 0.0
+    for t in range(T):
+        if t > 0:
+            if trans is None or time_varying:
+                # transition[i, j] ∝ p(x_t = g_j | x_(t-1) = g_i)
+                # every (from, to) pair of cells at once: row i = from g_i
+                x_from, x_to = np.repeat(cells, g.shape[0], axis=0), np.tile(cells, (g.shape[0], 1))
+                log_p = model.transition_logpdf(x_to, x_from, t=t - 1).reshape(g.shape[0], -1)
+                trans = _row_normalised_exp(log_p, "the transition density")
+            prior = posteriors[t - 1] @ trans
+        if np.all(np.isnan(ys[t])):
+            posteriors[t] = prior
+            continue
+        log_lik = model.measurement_logpdf(ys[t], cells)
+        # posterior ∝ p(y_t | g_j) prior_j; the evidence sum_j p(y_t | g_j) prior_j
+        shift = log_lik.max()
+        if shift == -np.inf:
+            raise ValueError(f"grid_filter, step t = {t}: the measurement has zero likelihood "
+                             "on the whole grid: widen the grid")
+        unnorm = np.exp(log_lik - shift) * prior
+        evidence = unnorm.sum()
+        if not evidence > 0:
+            raise ValueError(f"grid_filter, step t = {t}: the prior and the likelihood do not "
+                             "overlap on the grid: widen or refine the grid")
+        posteriors[t] = unnorm / evidence
+        loglik += shift + np.log(evidence)
+        edge = max(posteriors[t, 0], posteriors[t, -1])
+        if edge > EDGE_MASS:
+            # mass piling up at the boundary means the true posterior is cut off
+            raise ValueError(f"grid_filter, step t = {t}: the posterior has probability "
+                             f"{edge:.2g} in an end cell of the grid [{g[0]:.4g}, {g[-1]:.4g}]; "
+                             "it is cut off there: widen the grid")
+    means = posteriors @ g
+    variances = posteriors @ (g * g) - means ** 2
+    return GridFilterResult(g, posteriors, means, np.maximum(variances, 0.0), float(loglik))
+
+
+def _logpdf_prior(model, g):
+    """log N(g; m0, P0) at every cell (scalar state)."""
+    m0, p0 = float(model.m0[0]), float(model.P0[0, 0])
+    if not p0 > 0:
+        raise ValueError("grid_filter needs a prior with P0 > 0")
+    return -0.5 * ((g - m0) ** 2 / p0 + np.log(2 * np.pi * p0))

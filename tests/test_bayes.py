@@ -262,8 +262,13 @@ def test_shift_transition_rejects_bad_input(kwargs, match):
 def test_bayes_filter_rejects_bad_shapes_and_reports_the_step():
     with pytest.raises(ValueError, match=r"likelihoods must have shape \(T, 3\)"):
         bf.bayes.bayes_filter(np.ones(3), GOOD_T, np.ones((4, 2)))
-    with pytest.raises(ValueError, match="transitions must have shape"):
+    with pytest.raises(ValueError, match="transitions must hold T - 1 = 3 matrices"):
         bf.bayes.bayes_filter(np.ones(3), np.stack([GOOD_T] * 7), np.ones((4, 3)))
+    # T matrices for T measurements: a control list shifted by one must not pass silently
+    with pytest.raises(ValueError, match=r"got 4: ys\[0\] measures x_0 before any move"):
+        bf.bayes.bayes_filter(np.ones(3), np.stack([GOOD_T] * 4), np.ones((4, 3)))
+    with pytest.raises(ValueError, match="transitions must have shape"):
+        bf.bayes.bayes_filter(np.ones(3), np.ones((3, 2, 2)), np.ones((4, 3)))
     with pytest.raises(ValueError, match=r"transitions\[1\] rows must sum to 1"):
         bf.bayes.bayes_filter(np.ones(3), np.stack([GOOD_T, GOOD_T * 0.9, GOOD_T]), np.ones((4, 3)))
     liks = np.ones((4, 3))
@@ -303,3 +308,48 @@ def test_bad_types_are_type_errors():
         bf.bayes.update([0.5, 0.5], [True, False])
     with pytest.raises(ValueError, match="belief must not be empty"):
         bf.bayes.predict([], np.zeros((0, 0)))
+
+
+# --- the grid filter of a continuous 1-D model: an exact reference for chapter 06 ---
+
+def _scalar_linear_model(**kw):
+    args = dict(A=[[0.9]], C=[[1.0]], Q=[[0.5]], R=[[0.3]], m0=[1.0], P0=[[2.0]])
+    args.update(kw)
+    return bf.models.LinearGaussian(**args)
+
+
+def test_grid_filter_equals_the_kalman_filter_on_a_linear_model():
+    # The Kalman filter is exact here, and independent of the grid code.
+    model = _scalar_linear_model()
+    xs, ys = bf.models.simulate(model, 30, np.random.default_rng(3))
+    ys[7] = np.nan                                  # a missing measurement
+    grid = np.linspace(-15, 15, 1201)               # cells 0.025 wide, posterior std >= 0.4
+    res = bf.bayes.grid_filter(model, ys, grid)
+    kf = bf.kalman.kalman_filter(model, ys)
+    # midpoint-rule error O(h^2 / sigma^2) relative: ~1e-3 of a std is generous
+    np.testing.assert_allclose(res.means, kf.means[:, 0], atol=2e-3)
+    np.testing.assert_allclose(res.variances, kf.covs[:, 0, 0], rtol=5e-3)
+    assert res.loglik == pytest.approx(kf.loglik, abs=1e-2)
+    np.testing.assert_allclose(res.posteriors.sum(axis=1), 1.0, rtol=1e-12)
+
+
+def test_grid_filter_follows_a_time_varying_model():
+    # UNGM: the grid mean must follow the time index of the cosine term; against a
+    # brute-force Monte Carlo of the *prediction* alone (no measurement at t = 1).
+    model = bf.models.ungm()
+    ys = np.array([[np.nan], [np.nan]])
+    grid = np.linspace(-40, 40, 1601)
+    res = bf.bayes.grid_filter(model, ys, grid)
+    rng = np.random.default_rng(0)
+    x1 = model.sample_transition(rng, model.sample_initial(rng, 200_000), t=0)[:, 0]
+    se = x1.std() / np.sqrt(x1.size)
+    assert abs(res.means[1] - x1.mean()) < 5 * se + 1e-3, (res.means[1], x1.mean(), se)
+
+
+def test_grid_filter_rejects_bad_input():
+    with pytest.raises(ValueError, match="scalar state"):
+        bf.bayes.grid_filter(bf.models.damped_particle(), np.zeros((3, 2)), np.linspace(0, 1, 5))
+    with pytest.raises(ValueError, match="equally spaced"):
+        bf.bayes.grid_filter(_scalar_linear_model(), np.zeros(3), [0.0, 1.0, 3.0])
+    with pytest.raises(ValueError, match="widen"):
+        bf.bayes.grid_filter(_scalar_linear_model(R=[[1e-4]]), np.array([1e3]), np.linspace(-1, 1, 50))

@@ -1,0 +1,567 @@
+r"""Particle filters: sequential importance sampling (SIS) and resampling (chapters 05-06).
+
+A particle filter represents the posterior :math:`p(x_t \mid y_{0:t})` by
+``N`` weighted samples, the *particles* :math:`x_t^i` with normalised weights
+:math:`W_t^i` (seed 001, eq. (14)):
+
+.. math::
+
+    p(x_t \mid y_{0:t}) \approx \sum_{i=1}^N W_t^i\, \delta(x_t - x_t^i).
+
+**Sequential importance sampling** (seed 001, eqs. (9)-(13); Arulampalam et
+al. 2002, section IV). Each step draws every particle's new state from an
+*importance density* (proposal) :math:`q(x_t \mid x_{t-1}^i, y_t)` and
+multiplies its weight by how much more probable the draw is under the model
+than under :math:`q`:
+
+.. math::
+
+    w_t^i = W_{t-1}^i\,
+        \frac{p(y_t \mid x_t^i)\, p(x_t^i \mid x_{t-1}^i)}{q(x_t^i \mid x_{t-1}^i, y_t)},
+    \qquad W_t^i = \frac{w_t^i}{\sum_j w_t^j}.
+
+The sum :math:`\sum_j w_t^j` estimates the evidence
+:math:`p(y_t \mid y_{0:t-1})`; the product over t estimates the likelihood
+of the whole record. With the transition itself as the proposal (the
+*bootstrap* filter, Gordon et al. 1993) the ratio reduces to the
+likelihood :math:`p(y_t \mid x_t^i)`.
+
+**Log domain.** Products of many small likelihoods underflow: the code
+keeps log-weights and normalises with the log-sum-exp trick,
+:math:`\log \sum_j e^{\ell_j} = m + \log \sum_j e^{\ell_j - m}` with
+:math:`m = \max_j \ell_j`, so the largest term is :math:`e^0 = 1` and the
+sum cannot underflow to zero.
+
+**Degeneracy and resampling** (chapter 06). After a few steps almost all
+weight sits on a few particles. The *effective sample size*
+:math:`\mathrm{ESS} = 1 / \sum_i (W^i)^2` (between 1 and N) measures it;
+when it falls below ``ess_threshold * N`` the filter resamples
+(:mod:`bayesfilt.resampling`): it draws N particles from the weighted set,
+so heavy particles are copied and light ones dropped (seed 000 §3.2, step
+[4]), and resets the weights to 1/N.
+
+Import it as ``bf.particle``::
+
+    import numpy as np
+    import bayesfilt as bf
+
+    model = bf.models.ungm()
+    xs, ys = bf.models.simulate(model, 50, np.random.default_rng(0))
+    res = bf.particle.particle_filter(model, ys, 1000, np.random.default_rng(1))
+    res.means, res.covs, res.ess, res.resampled, res.loglik
+
+Time convention (seed 000), as in ``bf.kalman.kalman_filter``: ``ys[0]``
+measures :math:`x_0`, so step 0 draws the particles from the prior
+:math:`N(m_0, P_0)` and weights them by :math:`p(y_0 \mid x_0)`; step
+t >= 1 moves them from t - 1 to t. An all-NaN row of ``ys`` is a missing
+measurement: the particles move, the weights stay.
+
+filterpy has no particle filter class; ``filterpy.monte_carlo`` holds
+resampling functions only (see :mod:`bayesfilt.resampling`).
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from ._checks import as_array, as_int, as_matrix, as_rng, as_vector, check_callable, check_output
+from .gaussian import _cholesky, _factor, _logpdf_rows
+from .resampling import SCHEMES
+
+__all__ = [
+    "Proposal",
+    "SISStep",
+    "ParticleHistory",
+    "ParticleFilterResult",
+    "log_normalize",
+    "ess",
+    "weighted_mean_cov",
+    "sis_step",
+    "optimal_proposal",
+    "particle_filter",
+]
+
+
+class Proposal(NamedTuple):
+    r"""An importance density :math:`q(x_t \mid x_{t-1}, y_t)`: a sampler and its log-density.
+
+    sample : callable
+        ``sample(rng, x_prev, y, t)`` -> (N, n): one draw of :math:`x_t` for
+        each row of ``x_prev`` (N, n), given the measurement ``y`` (m,) at
+        time ``t`` (the time of the *new* state).
+    logpdf : callable
+        ``logpdf(x, x_prev, y, t)`` -> (N,): :math:`\log q(x^i \mid x_{t-1}^i, y_t)`
+        row by row.
+    """
+
+    sample: Callable
+    logpdf: Callable
+
+
+class SISStep(NamedTuple):
+    """One SIS step: ``particles`` (N, n), normalised ``log_weights`` (N,), and
+    ``log_increment``, the estimate of :math:`\\log p(y_t \\mid y_{0:t-1})`."""
+
+    particles: np.ndarray
+    log_weights: np.ndarray
+    log_increment: float
+
+
+class ParticleHistory(NamedTuple):
+    """Every step's weighted particles (``keep_history=True``), before resampling.
+
+    particles (T, N, n); weights (T, N), normalised; ancestors (T, N), the
+    index of each particle's parent at the previous step (``ancestors[0]`` is
+    ``arange(N)``).
+    """
+
+    particles: np.ndarray
+    weights: np.ndarray
+    ancestors: np.ndarray
+
+
+class ParticleFilterResult(NamedTuple):
+    """Output of :func:`particle_filter` over T steps.
+
+    means (T, n) and covs (T, n, n): weighted mean and covariance of the particles
+    at each step (before resampling), estimates of E[x_t | y_0..y_t] and Cov[...];
+    ess (T,): effective sample size after the weight update;
+    resampled (T,): True where the particles were resampled at the end of step t;
+    step_logliks (T,): log p(y_t | y_0..y_{t-1}) estimates, 0 on missing rows;
+    loglik: their sum, the log-evidence estimate; observed (T,): rows of ys measured;
+    history: a :class:`ParticleHistory` with ``keep_history=True``, else None.
+    """
+
+    means: np.ndarray
+    covs: np.ndarray
+    ess: np.ndarray
+    resampled: np.ndarray
+    step_logliks: np.ndarray
+    loglik: float
+    observed: np.ndarray
+    history: ParticleHistory | None
+
+
+# --------------------------------------------------------------------------
+# Weights
+# --------------------------------------------------------------------------
+
+def log_normalize(log_weights) -> tuple[np.ndarray, float]:
+    r"""Normalise log-weights with log-sum-exp.
+
+    .. math::
+
+        \log W^i = \ell_i - \log \sum_j e^{\ell_j},\qquad
+        \log \sum_j e^{\ell_j} = m + \log \sum_j e^{\ell_j - m},\quad m = \max_j \ell_j.
+
+    Parameters
+    ----------
+    log_weights : array_like, shape (N,)
+        Unnormalised log-weights :math:`\ell_i`; ``-inf`` (weight zero) is allowed.
+
+    Returns
+    -------
+    log_W : ndarray, shape (N,)
+        Normalised log-weights (``exp(log_W).sum() == 1`` to rounding).
+    log_sum : float
+        :math:`\log \sum_j e^{\ell_j}`. If the weights entering the step were
+        normalised, this is the log-evidence increment
+        :math:`\log \hat p(y_t \mid y_{0:t-1})`.
+
+    Raises
+    ------
+    ValueError
+        If a log-weight is NaN or +inf, or all are -inf (every weight is zero).
+    """
+    lw = as_vector("log_weights", log_weights, finite=False)
+    if np.isnan(lw).any() or np.isposinf(lw).any():
+        i = int(np.flatnonzero(np.isnan(lw) | np.isposinf(lw))[0])
+        raise ValueError(f"log_weights must be finite or -inf, got log_weights[{i}] = {lw[i]}")
+    m = lw.max()
+    if m == -np.inf:
+        raise ValueError("log_weights are all -inf: every weight is zero, nothing to normalise")
+    shifted = lw - m
+    # log sum_j exp(l_j) = m + log sum_j exp(l_j - m): the largest term is exp(0) = 1
+    log_rest = np.log(np.sum(np.exp(shifted)))
+    # log W_i = (l_i - m) - log sum_j exp(l_j - m)  (m cancels before it can cost precision)
+    return shifted - log_rest, float(m + log_rest)
+
+
+def ess(weights) -> float:
+    r"""Effective sample size :math:`1 / \sum_i (W^i)^2` of the normalised weights.
+
+    Equals N for equal weights and 1 when one particle holds all the weight.
+
+    Parameters
+    ----------
+    weights : array_like, shape (N,)
+        Non-negative weights, not all zero; normalised here.
+
+    Returns
+    -------
+    float, in [1, N]
+    """
+    w = as_vector("weights", weights)
+    if np.any(w < 0):
+        i = int(np.argmin(w))
+        raise ValueError(f"weights must be non-negative, got weights[{i}] = {w[i]:.3g}")
+    total = w.sum()
+    if not total > 0:
+        raise ValueError("weights must not all be zero")
+    W = w / total
+    # ESS = 1 / sum_i W_i^2
+    return float(1.0 / np.dot(W, W))
+
+
+def weighted_mean_cov(particles, weights) -> tuple[np.ndarray, np.ndarray]:
+    r"""Weighted mean :math:`\sum_i W^i x^i` and covariance :math:`\sum_i W^i (x^i - \bar x)(x^i - \bar x)^T`.
+
+    Parameters
+    ----------
+    particles : array_like, shape (N, n)
+    weights : array_like, shape (N,)
+        Normalised weights.
+
+    Returns
+    -------
+    mean : ndarray, shape (n,)
+    cov : ndarray, shape (n, n)
+    """
+    X = as_matrix("particles", particles)
+    W = as_vector("weights", weights, X.shape[0])
+    return _mean_cov(X, W)
+
+
+def _mean_cov(X, W):
+    # x_bar = sum_i W_i x_i
+    mean = W @ X
+    D = X - mean
+    # P = sum_i W_i (x_i - x_bar)(x_i - x_bar)^T
+    cov = (D * W[:, None]).T @ D
+    return mean, 0.5 * (cov + cov.T)
+
+
+# --------------------------------------------------------------------------
+# One SIS step (seed 001, eq. (13))
+# --------------------------------------------------------------------------
+
+def _check_proposal(proposal) -> Proposal:
+    if not isinstance(proposal, Proposal):
+        raise TypeError(f"proposal must be a bf.particle.Proposal(sample, logpdf) or None "
+                        f"(bootstrap), got {type(proposal).__name__}")
+    check_callable("proposal.sample", proposal.sample)
+    check_callable("proposal.logpdf", proposal.logpdf)
+    return proposal
+
+
+def _log_likelihood(model, y, X):
+    """log p(y | x) for every particle; a likelihood below floating point is -inf, not an error."""
+    with np.errstate(over="ignore"):  # (y - h(x))^2 overflowing means weight 0, handled by the caller
+        return model.measurement_logpdf(y, X)
+
+
+def _move(model, rng, X, y, t, proposal, u):
+    """Draw x_t for every particle; return (X_new, log-weight increment (N,)).
+
+    ``y`` is None for a missing measurement: the particles follow the
+    transition and the weights do not change.
+    """
+    if y is None:
+        return model.sample_transition(rng, X, u, t - 1), np.zeros(X.shape[0])
+    if proposal is None:
+        # Bootstrap: q = p(x_t | x_{t-1}), so the ratio in eq. (13) is p(y_t | x_t).
+        X_new = model.sample_transition(rng, X, u, t - 1)
+        return X_new, _log_likelihood(model, y, X_new)
+    X_new = check_output("proposal.sample", proposal.sample(rng, X, y, t), X.shape)
+    log_q = np.asarray(proposal.logpdf(X_new, X, y, t), dtype=float)
+    if log_q.shape != (X.shape[0],) or not np.all(np.isfinite(log_q)):
+        raise ValueError(f"proposal.logpdf must return {X.shape[0]} finite log-densities of the "
+                         f"particles it drew, shape ({X.shape[0]},); got shape {log_q.shape}"
+                         + ("" if log_q.shape != (X.shape[0],) else " with NaN or inf"))
+    # log w_t = log W_{t-1} + log p(y_t | x_t) + log p(x_t | x_{t-1}) - log q(x_t | x_{t-1}, y_t)
+    return X_new, (_log_likelihood(model, y, X_new)
+                   + model.transition_logpdf(X_new, X, u, t - 1) - log_q)
+
+
+def sis_step(model, rng, particles, log_weights, y, t: int, proposal=None, u=None) -> SISStep:
+    r"""One step of sequential importance sampling, from time t - 1 to t (seed 001, eq. (13)).
+
+    .. math::
+
+        x_t^i \sim q(x_t \mid x_{t-1}^i, y_t),\qquad
+        \log w_t^i = \log W_{t-1}^i + \log p(y_t \mid x_t^i) + \log p(x_t^i \mid x_{t-1}^i)
+                     - \log q(x_t^i \mid x_{t-1}^i, y_t),
+
+    then normalised with :func:`log_normalize`. No resampling.
+
+    Parameters
+    ----------
+    model : bf.models.LinearGaussian or NonlinearGaussian
+    rng : numpy.random.Generator
+    particles : array_like, shape (N, n)
+        :math:`x_{t-1}^i`.
+    log_weights : array_like, shape (N,)
+        :math:`\log W_{t-1}^i`, normalised.
+    y : array_like, shape (m,), or None
+        :math:`y_t`; None (or all NaN) for a missing measurement.
+    t : int
+        Time index of the new state (>= 1).
+    proposal : Proposal, optional
+        The importance density q; None uses the transition (bootstrap), for
+        which the ratio reduces to :math:`p(y_t \mid x_t^i)`. A proposal
+        other than the transition needs ``model.transition_logpdf``, i.e. a
+        transition with a density (:math:`G Q G^T` invertible).
+    u : array_like, shape (p,), optional
+        Control input :math:`u_{t-1}` (linear models with ``B``).
+
+    Returns
+    -------
+    SISStep
+    """
+    rng = as_rng("rng", rng)
+    X = as_matrix("particles", particles, (None, model.state_dim))
+    lw = as_vector("log_weights", log_weights, X.shape[0], finite=False)
+    t = as_int("t", t, minimum=1)
+    if proposal is not None:
+        proposal = _check_proposal(proposal)
+    if y is not None:
+        y = as_vector("y", y, model.obs_dim, finite=False)
+        if np.all(np.isnan(y)):
+            y = None
+        elif not np.all(np.isfinite(y)):
+            raise ValueError(f"y must be all finite or all NaN (missing), got {y}")
+    try:
+        X_new, log_incr = _move(model, rng, X, y, t, proposal, u)
+        if y is None:
+            return SISStep(X_new, lw, 0.0)
+        log_W, log_sum = _normalize_or_explain(lw + log_incr, t, y)
+    except ValueError as exc:
+        raise ValueError(f"sis_step, step t = {t}: {exc}") from None
+    return SISStep(X_new, log_W, log_sum)
+
+
+def _normalize_or_explain(lw, t, y):
+    """:func:`log_normalize`, with an error that says which step failed and why."""
+    if np.isnan(lw).any():
+        raise ValueError("a log-weight is NaN (a log-density of the model or the proposal "
+                         "returned NaN)")
+    if np.all(lw == -np.inf):
+        raise ValueError(
+            f"every particle's weight is zero: the measurement y_{t} = "
+            f"{np.array2string(np.asarray(y), precision=4)} is impossible (log-likelihood -inf, "
+            f"below floating point) under every particle. The particles missed the region the "
+            f"measurement points to: use more particles, a proposal that looks at y_t, or check "
+            f"the measurement model, its noise R and the data")
+    return log_normalize(lw)
+
+
+# --------------------------------------------------------------------------
+# The optimal proposal of a linear-Gaussian model (chapter 05)
+# --------------------------------------------------------------------------
+
+def optimal_proposal(model) -> Proposal:
+    r"""The optimal importance density :math:`p(x_t \mid x_{t-1}, y_t)` of a linear-Gaussian model.
+
+    With :math:`\tilde Q = G Q G^T` (invertible), :math:`x_t \mid x_{t-1}` is
+    :math:`N(A x_{t-1} + B u, \tilde Q)`, and conditioning on :math:`y_t = C x_t + v_t`
+    is one Kalman update of that Gaussian:
+
+    .. math::
+
+        K = \tilde Q C^T (C \tilde Q C^T + R)^{-1},\qquad
+        \mu^i = A x_{t-1}^i + K (y_t - C A x_{t-1}^i),\qquad
+        \Sigma = (I - K C) \tilde Q.
+
+    Every particle shares :math:`\Sigma`. Its weight increment (eq. (13))
+    is :math:`p(y_t \mid x_{t-1}^i) = N(y_t; C A x_{t-1}^i, C \tilde Q C^T + R)`,
+    which does not depend on the draw :math:`x_t^i`: this proposal minimises
+    the variance of the weights given the past (Doucet, Godsill & Andrieu 2000).
+
+    Parameters
+    ----------
+    model : bf.models.LinearGaussian
+        Without a control input (the proposal has no ``u``), with
+        :math:`G Q G^T` positive definite.
+
+    Returns
+    -------
+    Proposal
+    """
+    from .models import LinearGaussian
+
+    if not isinstance(model, LinearGaussian):
+        raise TypeError(f"model must be a bf.models.LinearGaussian, got {type(model).__name__}")
+    if model.B is not None:
+        raise ValueError("optimal_proposal: model has a control matrix B; build it without B")
+    A, C, R = model.A, model.C, model.R
+    Qt = model.G @ model.Q @ model.G.T
+    _cholesky("G Q G^T (the transition noise covariance; the optimal proposal needs a "
+              "transition density)", Qt)
+    S = C @ Qt @ C.T + R
+    # K = Q~ C^T S^{-1}
+    K = np.linalg.solve(S, C @ Qt).T
+    # Sigma = (I - K C) Q~
+    Sigma = (np.eye(A.shape[0]) - K @ C) @ Qt
+    Sigma = 0.5 * (Sigma + Sigma.T)
+    L_Sigma, chol_Sigma = _factor(Sigma), _cholesky("Sigma", Sigma)
+
+    def mean(x_prev, y):
+        pred = x_prev @ A.T
+        # mu = A x + K (y - C A x)
+        return pred + (y - pred @ C.T) @ K.T
+
+    def sample(rng, x_prev, y, t):
+        z = rng.standard_normal(x_prev.shape)
+        return mean(x_prev, y) + z @ L_Sigma.T
+
+    def logpdf(x, x_prev, y, t):
+        return _logpdf_rows(x - mean(x_prev, y), chol_Sigma)
+
+    return Proposal(sample, logpdf)
+
+
+# --------------------------------------------------------------------------
+# The particle filter
+# --------------------------------------------------------------------------
+
+def _check_threshold(ess_threshold) -> float:
+    if isinstance(ess_threshold, (bool, np.bool_)) or not isinstance(ess_threshold, numbers.Real):
+        raise TypeError(f"ess_threshold must be a number in [0, 1], got {ess_threshold!r}")
+    value = float(ess_threshold)
+    if not 0.0 <= value <= 1.0:
+        raise ValueError(f"ess_threshold must be in [0, 1] (a fraction of n_particles), got {value}")
+    return value
+
+
+def _check_ys(ys, m: int):
+    if m == 1 and np.ndim(ys) == 1:
+        ys = np.asarray(ys)[:, None]  # a scalar measurement per step
+    ys = as_matrix("ys", ys, (None, m), finite=False)
+    nan = np.isnan(ys)
+    observed = ~np.all(nan, axis=1)
+    bad = np.flatnonzero((np.any(nan, axis=1) & observed) | np.any(np.isinf(ys), axis=1))
+    if bad.size:
+        raise ValueError(f"ys row {bad[0]} must be all finite or all NaN (missing), "
+                         f"got {np.array2string(ys[bad[0]], precision=4)}")
+    return ys, observed
+
+
+def _check_us(model, us, T):
+    if us is None:
+        return None
+    if getattr(model, "B", None) is None:
+        raise ValueError("us was given but the model has no control matrix B")
+    us = as_matrix("us", us, (None, model.control_dim))
+    if us.shape[0] not in (T - 1, T):
+        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {us.shape[0]}")
+    return us
+
+
+def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="systematic",
+                    ess_threshold: float = 0.5, us=None, keep_history: bool = False
+                    ) -> ParticleFilterResult:
+    r"""Run a particle filter (SIS with adaptive resampling) over a measurement record.
+
+    For t = 0, ..., T-1 (seed 000 §3.2, steps [1]-[5]; Arulampalam et al.
+    2002, Algorithm 4):
+
+    1. t = 0: draw N particles from the prior :math:`N(m_0, P_0)` (step [1]);
+       t >= 1: move each particle with the proposal (step [2]);
+    2. weight them by eq. (13), normalise in the log domain (step [3]) and
+       record the weighted mean, covariance and ESS;
+    3. if ``ESS < ess_threshold * N`` (always when ``ess_threshold == 1``),
+       resample with the named scheme and reset the weights to 1/N (step [4]).
+
+    Parameters
+    ----------
+    model : bf.models.LinearGaussian or NonlinearGaussian
+        Any model with the particle interface (``sample_initial``,
+        ``sample_transition``, ``measurement_logpdf``, ``transition_logpdf``);
+        a time-varying model gets each step's time index.
+    ys : array_like, shape (T, m)
+        Measurements; ``ys[0]`` measures :math:`x_0`. An all-NaN row is
+        missing. (A 1-D array is accepted when m = 1.)
+    n_particles : int
+        N >= 1.
+    rng : numpy.random.Generator
+    proposal : Proposal, optional
+        Importance density; None is the bootstrap filter (q = transition).
+    resample : str
+        A key of ``bf.resampling.SCHEMES``: "systematic" (default),
+        "stratified", "residual" or "multinomial".
+    ess_threshold : float in [0, 1]
+        0 never resamples (plain SIS, chapter 05); 1 resamples at every step
+        (SIR, the bootstrap filter of Gordon et al.); 0.5 is a common choice.
+    us : array_like, shape (T - 1, p), optional
+        Known inputs (linear models with ``B``); row t acts from t to t + 1.
+    keep_history : bool
+        Also return every step's particles, weights and ancestors
+        (O(T N n) memory; for plots).
+
+    Returns
+    -------
+    ParticleFilterResult
+
+    Raises
+    ------
+    ValueError
+        On bad arguments (each named), or when at some step every weight is
+        zero (the message names the step and the measurement).
+    """
+    if not hasattr(model, "sample_transition") or not hasattr(model, "measurement_logpdf"):
+        raise TypeError(f"model must be a bf.models model with the particle interface, "
+                        f"got {type(model).__name__}")
+    N = as_int("n_particles", n_particles, minimum=1)
+    rng = as_rng("rng", rng)
+    if proposal is not None:
+        proposal = _check_proposal(proposal)
+    if not isinstance(resample, str) or resample not in SCHEMES:
+        raise ValueError(f"resample must be one of {sorted(SCHEMES)}, got {resample!r}")
+    scheme = SCHEMES[resample]
+    threshold = _check_threshold(ess_threshold)
+    n = model.state_dim
+    ys, observed = _check_ys(ys, model.obs_dim)
+    T = ys.shape[0]
+    if T == 0:
+        raise ValueError(f"ys must have at least one row, got shape {ys.shape}")
+    us = _check_us(model, us, T)
+
+    means, covs = np.empty((T, n)), np.empty((T, n, n))
+    ess_t, resampled, step_logliks = np.empty(T), np.zeros(T, dtype=bool), np.zeros(T)
+    if keep_history:
+        hist_X, hist_W = np.empty((T, N, n)), np.empty((T, N))
+        hist_A = np.empty((T, N), dtype=np.intp)
+    parents = np.arange(N)
+    X = model.sample_initial(rng, N)                          # step [1]
+    log_W = np.full(N, -np.log(N))
+    for t in range(T):
+        y = ys[t] if observed[t] else None
+        try:
+            if t == 0:
+                log_incr = np.zeros(N) if y is None else _log_likelihood(model, y, X)
+            else:                                              # step [2]
+                X, log_incr = _move(model, rng, X, y, t, proposal,
+                                    None if us is None else us[t - 1])
+            if y is not None:                                  # step [3]
+                log_W, step_logliks[t] = _normalize_or_explain(log_W + log_incr, t, y)
+        except ValueError as exc:
+            raise ValueError(f"particle_filter, step t = {t}: {exc}") from None
+        W = np.exp(log_W)
+        means[t], covs[t] = _mean_cov(X, W)
+        # ESS = 1 / sum_i W_i^2
+        ess_t[t] = 1.0 / np.dot(W, W)
+        if keep_history:
+            hist_X[t], hist_W[t], hist_A[t] = X, W, parents
+        if threshold == 1.0 or ess_t[t] < threshold * N:      # step [4]
+            parents = scheme(W, rng)
+            X = X[parents]
+            log_W = np.full(N, -np.log(N))
+            resampled[t] = True
+        else:
+            parents = np.arange(N)
+    history = ParticleHistory(hist_X, hist_W, hist_A) if keep_history else None
+    return ParticleFilterResult(means, covs, ess_t, resampled, step_logliks,
+                                float(step_logliks.sum()), observed, history)

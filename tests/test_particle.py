@@ -1,0 +1,283 @@
+"""bf.particle against independent references: scipy's logsumexp, the Kalman
+filter (exact on linear-Gaussian models), the grid filter (exact up to its
+cells on a 1-D nonlinear model) and closed-form Gaussian densities.
+
+Particle-filter outputs are random; every test uses fixed seeds, and each
+tolerance is set from the known 1/N behaviour of the Monte Carlo error with
+a margin of several times the spread seen over other seeds (stated in the
+comments), so the tests do not flake and still fail when the code is wrong.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.special import logsumexp
+
+import bayesfilt as bf
+
+
+def linear_model(**kw):
+    """A 2-D linear-Gaussian model with a full-rank transition noise."""
+    args = dict(A=[[0.9, 0.2], [0.0, 0.8]], C=[[1.0, 0.0]], Q=[[0.3, 0.05], [0.05, 0.2]],
+                R=[[0.5]], m0=[0.0, 0.0], P0=np.eye(2))
+    args.update(kw)
+    return bf.models.LinearGaussian(**args)
+
+
+# --------------------------------------------------------------------------
+# Weights
+# --------------------------------------------------------------------------
+
+def test_log_normalize_matches_scipy_and_survives_underflow():
+    lw = np.array([-1000.0, -1001.0, -np.inf, -1002.5])   # exp() of these underflows to 0
+    log_W, log_sum = bf.particle.log_normalize(lw)
+    assert log_sum == pytest.approx(logsumexp(lw), rel=1e-15)
+    np.testing.assert_allclose(np.exp(log_W).sum(), 1.0, rtol=1e-14)
+    assert np.exp(log_W[2]) == 0.0
+
+
+@pytest.mark.parametrize("bad, match", [
+    ([0.0, np.nan], "log_weights must be finite or -inf"),
+    ([0.0, np.inf], "log_weights must be finite or -inf"),
+    ([-np.inf, -np.inf], "every weight is zero"),
+    (np.zeros((2, 2)), "log_weights must be a vector"),
+])
+def test_log_normalize_rejects_bad_input(bad, match):
+    with pytest.raises(ValueError, match=match):
+        bf.particle.log_normalize(bad)
+
+
+def test_ess_extremes_and_errors():
+    assert bf.particle.ess(np.full(50, 3.0)) == pytest.approx(50.0, rel=1e-14)
+    assert bf.particle.ess([0.0, 0.0, 2.0]) == pytest.approx(1.0)
+    # two equal weights out of four: 1 / (2 * 0.5^2) = 2
+    assert bf.particle.ess([1.0, 0.0, 1.0, 0.0]) == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="weights must be non-negative"):
+        bf.particle.ess([1.0, -0.1])
+    with pytest.raises(ValueError, match="weights must not all be zero"):
+        bf.particle.ess([0.0, 0.0])
+
+
+def test_weighted_mean_cov_against_numpy():
+    rng = np.random.default_rng(0)
+    X, w = rng.standard_normal((30, 3)), rng.random(30)
+    W = w / w.sum()
+    mean, cov = bf.particle.weighted_mean_cov(X, W)
+    np.testing.assert_allclose(mean, np.average(X, axis=0, weights=W), rtol=1e-13)
+    np.testing.assert_allclose(cov, np.cov(X.T, aweights=W, bias=True), rtol=1e-12, atol=1e-15)
+
+
+# --------------------------------------------------------------------------
+# One SIS step (seed 001, eq. (13))
+# --------------------------------------------------------------------------
+
+def test_bootstrap_step_equals_eq_13_with_the_transition_as_proposal():
+    # The bootstrap shortcut (weight = likelihood) against eq. (13) written out
+    # with q = p(x_t | x_{t-1}): same draws, same normalised weights.
+    model = linear_model()
+    rng = np.random.default_rng(1)
+    X = rng.standard_normal((200, 2))
+    lw = bf.particle.log_normalize(rng.standard_normal(200))[0]
+    prior_q = bf.particle.Proposal(
+        sample=lambda r, xp, y, t: model.sample_transition(r, xp, t=t - 1),
+        logpdf=lambda x, xp, y, t: model.transition_logpdf(x, xp, t=t - 1))
+    a = bf.particle.sis_step(model, np.random.default_rng(7), X, lw, [0.4], t=1)
+    b = bf.particle.sis_step(model, np.random.default_rng(7), X, lw, [0.4], t=1, proposal=prior_q)
+    np.testing.assert_array_equal(a.particles, b.particles)
+    np.testing.assert_allclose(a.log_weights, b.log_weights, rtol=1e-12, atol=1e-12)
+    assert a.log_increment == pytest.approx(b.log_increment, rel=1e-12)
+
+
+def test_optimal_proposal_weight_is_the_predictive_likelihood():
+    # For q = p(x_t | x_{t-1}, y_t) eq. (13) must give p(y_t | x_{t-1}) whatever x_t was drawn:
+    # N(y; C A x_{t-1}, C G Q G^T C^T + R), computed here with scipy.
+    model = linear_model()
+    q = bf.particle.optimal_proposal(model)
+    rng = np.random.default_rng(2)
+    xp, y = rng.standard_normal((500, 2)), np.array([0.7])
+    x = q.sample(rng, xp, y, 1)
+    incr = (model.measurement_logpdf(y, x) + model.transition_logpdf(x, xp) - q.logpdf(x, xp, y, 1))
+    S = model.C @ model.Q @ model.C.T + model.R
+    ref = stats.norm.logpdf(y[0], (xp @ model.A.T @ model.C.T)[:, 0], np.sqrt(S[0, 0]))
+    np.testing.assert_allclose(incr, ref, rtol=1e-10)
+    # and the draws have the conditional mean and covariance of one Kalman update
+    K = model.Q @ model.C.T / S[0, 0]
+    one = np.tile([0.5, -0.5], (200_000, 1))
+    draws = q.sample(np.random.default_rng(3), one, y, 1)
+    mu = model.A @ one[0] + (K @ (y - model.C @ model.A @ one[0]))
+    Sigma = (np.eye(2) - K @ model.C) @ model.Q
+    se = np.sqrt(np.diag(Sigma) / len(draws))
+    assert np.all(np.abs(draws.mean(axis=0) - mu) < 5 * se), "optimal proposal mean is wrong"
+    np.testing.assert_allclose(np.cov(draws.T), Sigma, rtol=0.02, atol=2e-3)
+
+
+def test_optimal_proposal_needs_a_transition_density():
+    with pytest.raises(ValueError, match="G Q G\\^T"):
+        bf.particle.optimal_proposal(bf.models.damped_particle())
+    with pytest.raises(TypeError, match="LinearGaussian"):
+        bf.particle.optimal_proposal(bf.models.ungm())
+
+
+def test_sis_step_missing_measurement_keeps_the_weights():
+    model = linear_model()
+    lw = bf.particle.log_normalize(np.arange(5.0))[0]
+    out = bf.particle.sis_step(model, np.random.default_rng(0), np.zeros((5, 2)), lw, [np.nan], t=3)
+    np.testing.assert_array_equal(out.log_weights, lw)
+    assert out.log_increment == 0.0
+
+
+# --------------------------------------------------------------------------
+# The filter against exact references
+# --------------------------------------------------------------------------
+
+def test_particle_filter_converges_to_the_kalman_filter():
+    model = linear_model()
+    xs, ys = bf.models.simulate(model, 40, np.random.default_rng(0))
+    ys[10] = np.nan
+    kf = bf.kalman.kalman_filter(model, ys)
+    sd = np.sqrt(np.diagonal(kf.covs, axis1=1, axis2=2))
+    err = {}
+    for N in (500, 8000):
+        pf = bf.particle.particle_filter(model, ys, N, np.random.default_rng(100))
+        err[N] = np.mean(((pf.means - kf.means) / sd) ** 2)
+        # The Monte Carlo error of a weighted mean is ~ c / N in squared std units;
+        # c was 1-20 over 8 seeds: N * err < 100 leaves a margin of 5.
+        assert N * err[N] < 100, f"N = {N}: mean squared error {err[N]:.3g} of the PF means is too large"
+        np.testing.assert_array_equal(pf.observed, kf.observed)
+        assert pf.step_logliks[10] == 0.0
+    # 16 times more particles: the error must shrink (by ~16; 4 is a safe floor)
+    assert err[8000] < err[500] / 4, f"error did not shrink with N: {err}"
+
+
+def test_log_evidence_close_to_the_kalman_log_likelihood():
+    model = linear_model()
+    _, ys = bf.models.simulate(model, 40, np.random.default_rng(1))
+    kf = bf.kalman.kalman_filter(model, ys)
+    pf = bf.particle.particle_filter(model, ys, 8000, np.random.default_rng(2))
+    # |error| was <= 0.25 over 8 seeds at N = 8000; 1.0 is 4x that
+    assert abs(pf.loglik - kf.loglik) < 1.0, (pf.loglik, kf.loglik)
+    np.testing.assert_allclose(pf.loglik, pf.step_logliks.sum())
+
+
+def test_particle_filter_with_the_optimal_proposal_matches_kalman():
+    model = linear_model()
+    _, ys = bf.models.simulate(model, 30, np.random.default_rng(4))
+    kf = bf.kalman.kalman_filter(model, ys)
+    q = bf.particle.optimal_proposal(model)
+    pf = bf.particle.particle_filter(model, ys, 4000, np.random.default_rng(5), proposal=q)
+    sd = np.sqrt(np.diagonal(kf.covs, axis1=1, axis2=2))
+    assert 4000 * np.mean(((pf.means - kf.means) / sd) ** 2) < 100
+    boot = bf.particle.particle_filter(model, ys, 4000, np.random.default_rng(5), ess_threshold=0)
+    opt = bf.particle.particle_filter(model, ys, 4000, np.random.default_rng(5), proposal=q,
+                                      ess_threshold=0)
+    # without resampling, the optimal proposal keeps a larger ESS than the prior proposal
+    assert opt.ess[-1] > boot.ess[-1], (opt.ess[-1], boot.ess[-1])
+
+
+def test_particle_filter_converges_to_the_grid_filter_on_ungm():
+    model = bf.models.ungm()
+    xs, ys = bf.models.simulate(model, 15, np.random.default_rng(0))
+    grid = bf.bayes.grid_filter(model, ys, np.linspace(-40, 40, 1601))
+    pf = bf.particle.particle_filter(model, ys, 20000, np.random.default_rng(1))
+    sd = np.sqrt(grid.variances)
+    z = (pf.means[:, 0] - grid.means) / sd
+    # bimodal posteriors make c larger than in the linear case; over seeds
+    # N * mean(z^2) stayed below 40: 400 leaves a margin of 10
+    assert 20000 * np.mean(z ** 2) < 400, f"PF is not close to the exact (grid) posterior means: {z}"
+    assert abs(pf.loglik - grid.loglik) < 1.0
+
+
+def test_ungm_runs_under_ekf_and_particle_filter_without_extra_arguments():
+    model = bf.models.ungm()
+    xs, ys = bf.models.simulate(model, 20, np.random.default_rng(3))
+    ekf = bf.ekf.extended_kalman_filter(model, ys)
+    pf = bf.particle.particle_filter(model, ys, 500, np.random.default_rng(4))
+    assert ekf.means.shape == pf.means.shape == (20, 1)
+    # the EKF must have used the time index too: its prediction at t = 1 is f(x_0|0, 0)
+    f0 = model.f(ekf.means[0], 0)
+    np.testing.assert_allclose(ekf.pred_means[1], f0, rtol=1e-14)
+
+
+# --------------------------------------------------------------------------
+# Resampling control, history, bad input
+# --------------------------------------------------------------------------
+
+def test_threshold_zero_never_resamples_and_one_always_does():
+    model = linear_model()
+    _, ys = bf.models.simulate(model, 25, np.random.default_rng(0))
+    sis = bf.particle.particle_filter(model, ys, 300, np.random.default_rng(1), ess_threshold=0)
+    sir = bf.particle.particle_filter(model, ys, 300, np.random.default_rng(1), ess_threshold=1)
+    assert not sis.resampled.any() and sir.resampled.all()
+    half = bf.particle.particle_filter(model, ys, 300, np.random.default_rng(1))
+    # with the default 0.5, resampling happens exactly where ESS fell below N / 2
+    np.testing.assert_array_equal(half.resampled, half.ess < 150)
+    assert np.all((1 <= sis.ess) & (sis.ess <= 300 + 1e-9))
+
+
+@pytest.mark.parametrize("scheme", ["multinomial", "stratified", "systematic", "residual"])
+def test_every_scheme_runs_the_filter(scheme):
+    model = linear_model()
+    _, ys = bf.models.simulate(model, 10, np.random.default_rng(0))
+    res = bf.particle.particle_filter(model, ys, 2000, np.random.default_rng(1), resample=scheme)
+    kf = bf.kalman.kalman_filter(model, ys)
+    sd = np.sqrt(np.diagonal(kf.covs, axis1=1, axis2=2))
+    assert 2000 * np.mean(((res.means - kf.means) / sd) ** 2) < 100
+
+
+def test_history_is_consistent():
+    model = linear_model()
+    _, ys = bf.models.simulate(model, 8, np.random.default_rng(0))
+    res = bf.particle.particle_filter(model, ys, 100, np.random.default_rng(1), keep_history=True)
+    h = res.history
+    assert h.particles.shape == (8, 100, 2) and h.weights.shape == h.ancestors.shape == (8, 100)
+    np.testing.assert_allclose(h.weights.sum(axis=1), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(np.einsum("tn,tnk->tk", h.weights, h.particles), res.means, rtol=1e-12)
+    np.testing.assert_array_equal(h.ancestors[0], np.arange(100))
+    no_resample = np.flatnonzero(~res.resampled[:-1]) + 1
+    for t in no_resample:   # without resampling, each particle is its own parent
+        np.testing.assert_array_equal(h.ancestors[t], np.arange(100))
+    assert bf.particle.particle_filter(model, ys, 10, np.random.default_rng(1)).history is None
+
+
+def test_impossible_measurement_names_the_step():
+    model = linear_model()
+    ys = np.array([[0.1], [0.2], [1e300], [0.0]])     # (y - Cx)^2 overflows: likelihood 0
+    with pytest.raises(ValueError, match=r"step t = 2: every particle's weight is zero"):
+        bf.particle.particle_filter(model, ys, 100, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("kwargs, err, match", [
+    (dict(n_particles=0), ValueError, "n_particles must be >= 1"),
+    (dict(n_particles=10.0), TypeError, "n_particles must be an integer"),
+    (dict(resample="bogus"), ValueError, "resample must be one of"),
+    (dict(ess_threshold=1.5), ValueError, r"ess_threshold must be in \[0, 1\]"),
+    (dict(ess_threshold=-0.1), ValueError, r"ess_threshold must be in \[0, 1\]"),
+    (dict(ess_threshold="half"), TypeError, "ess_threshold must be a number"),
+    (dict(rng=np.random), TypeError, "rng must be a numpy.random.Generator"),
+    (dict(proposal=lambda *a: None), TypeError, "proposal must be a bf.particle.Proposal"),
+    (dict(us=np.zeros((4, 1))), ValueError, "no control matrix B"),
+])
+def test_particle_filter_rejects_bad_arguments(kwargs, err, match):
+    model = linear_model()
+    args = dict(model=model, ys=np.zeros((5, 1)), n_particles=10, rng=np.random.default_rng(0))
+    args.update(kwargs)
+    with pytest.raises(err, match=match):
+        bf.particle.particle_filter(**args)
+
+
+def test_particle_filter_rejects_bad_data_and_bad_proposals():
+    model, rng = linear_model(), np.random.default_rng(0)
+    with pytest.raises(ValueError, match="ys row 1 must be all finite or all NaN"):
+        bf.particle.particle_filter(model, [[0.0], [np.inf]], 10, rng)
+    with pytest.raises(ValueError, match=r"ys must have shape \(\?, 1\)"):
+        bf.particle.particle_filter(model, np.zeros((3, 2)), 10, rng)
+    wrong_shape = bf.particle.Proposal(sample=lambda r, xp, y, t: xp[:, :1],
+                                       logpdf=lambda x, xp, y, t: np.zeros(len(x)))
+    with pytest.raises(ValueError, match=r"step t = 1: proposal.sample must return shape \(10, 2\)"):
+        bf.particle.particle_filter(model, np.zeros((3, 1)), 10, rng, proposal=wrong_shape)
+    nan_density = bf.particle.Proposal(sample=lambda r, xp, y, t: xp.copy(),
+                                       logpdf=lambda x, xp, y, t: np.full(len(x), np.nan))
+    with pytest.raises(ValueError, match="proposal.logpdf must return 10 finite log-densities"):
+        bf.particle.particle_filter(model, np.zeros((3, 1)), 10, rng, proposal=nan_density)
