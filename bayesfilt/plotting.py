@@ -8,6 +8,13 @@ a notebook keeps control of the figure layout::
     fig, ax = plt.subplots()
     bf.plotting.plot_error(ax, t, xs[:, 0] - res.means[:, 0], np.sqrt(res.covs[:, 0, 0]), unit="m")
 
+Plots in the plane (:func:`plot_track`, :func:`covariance_ellipse`) take
+positions of width 2, or full states together with the model, whose
+``position_names`` select the columns; they never guess which columns are
+positions, because that differs between models::
+
+    bf.plotting.plot_track(ax, sim.xs, sim.ys, res.means, res.covs, model=model)
+
 The filters never plot; the plots never filter.
 """
 
@@ -44,14 +51,22 @@ COURSE_STYLE = {
 
 
 def use_course_style() -> None:
-    """Apply the course's matplotlib settings (size, resolution, grid, fonts).
+    """Reset matplotlib to its defaults, then apply the course's settings.
 
     Every notebook calls this once in its first cell, so that all chapters
-    look alike and their stored figures stay small.
-    """
-    import matplotlib as mpl
+    look alike and their stored figures stay small. The reset comes first so
+    that what a learner sees is what CI checked: a personal ``matplotlibrc``
+    or an earlier ``plt.rcParams`` change (``figure.constrained_layout.use``,
+    ``text.usetex``, another figure size, ...) would otherwise change the
+    figures, the printed figure sizes and the warnings of a cell.
 
-    mpl.rcParams.update(COURSE_STYLE)
+    The reset is ``matplotlib.style.use("default")``, which leaves alone the
+    settings that are not about style: the backend chosen by
+    ``%matplotlib inline`` and interactive mode are kept.
+    """
+    import matplotlib.style
+
+    matplotlib.style.use(["default", COURSE_STYLE])
 
 
 def _as_std(std, size: int) -> np.ndarray:
@@ -65,24 +80,83 @@ def _label(name: str, unit: str) -> str:
     return f"{name} ({unit})" if unit else name
 
 
-def covariance_ellipse(ax, mean, cov, n_std: float = 2.0, **kwargs):
+def _position_columns(model) -> list[int] | None:
+    """Indices of ``model.position_names`` in its state, or None without a model."""
+    if model is None:
+        return None
+    if not all(hasattr(model, a) for a in ("state_dim", "state_names", "position_names")):
+        raise TypeError("model must be a bayesfilt model with state_names and position_names "
+                        f"(e.g. bf.models.damped_particle()), got {type(model).__name__}")
+    if model.position_names is None or model.state_names is None:
+        raise ValueError(f"model ({type(model).__name__}) has no position_names, so its planar "
+                         "positions are unknown: give the model state_names and position_names, "
+                         "or pass the two position columns yourself (shape (..., 2))")
+    names = list(model.state_names)
+    return [names.index(a) for a in model.position_names]
+
+
+def _planar(name: str, a: np.ndarray, model, want: str, *, square: bool = False) -> np.ndarray:
+    """Planar positions (last axis of width 2) from positions or, with a model, full states.
+
+    ``a`` has its shape checked already except for the last axis (the last
+    two if ``square``, for covariances). Width 2 is taken as the positions
+    themselves; the full state width of ``model`` is reduced to the columns
+    ``model.position_names``; anything else is an error. A full-state array
+    without a model is refused: which two columns are positions differs
+    between models (``[x1, x1_dot, x2, x2_dot]`` against ``[r_x, r_y, v_x, v_y]``).
+    """
+    width = a.shape[-1]
+    if square and a.shape[-2] != width:
+        raise ValueError(f"{name} must have shape {want}, got shape {a.shape} (not square)")
+    if width == 2:
+        return a
+    cols = _position_columns(model)
+    if cols is None:
+        raise ValueError(f"{name} must have shape {want} (planar positions), got shape {a.shape}. "
+                         f"For full states of width {width}, pass model= so that the positions are "
+                         "selected by model.position_names, or select the two position columns "
+                         "yourself")
+    n = model.state_dim
+    if width != n:
+        full = want.replace("2", str(n))
+        raise ValueError(f"{name} must have shape {want} (planar positions) or {full} (full states "
+                         f"{list(model.state_names)} of the model), got shape {a.shape}")
+    if square:
+        return a[..., cols, :][..., cols]
+    return a[..., cols]
+
+
+def covariance_ellipse(ax, mean, cov, n_std: float = 2.0, *, model=None, **kwargs):
     r"""Draw the ellipse :math:`(x - m)^T P^{-1} (x - m) = n_{std}^2` of a 2-D Gaussian.
 
     Parameters
     ----------
     ax : matplotlib.axes.Axes
-    mean : array_like, shape (2,)
-    cov : array_like, shape (2, 2)
-        Symmetric positive semi-definite.
+    mean : array_like, shape (2,) or (n,)
+        A mean in the plane; a full state of length n only with ``model``.
+    cov : array_like, shape (2, 2) or (n, n)
+        Symmetric positive semi-definite; a full state covariance only with
+        ``model``, whose position block is drawn.
     n_std : float
         Radius in standard deviations (2: about 86 % of the mass in 2-D).
+    model : LinearGaussian or NonlinearGaussian, optional
+        Selects the planar positions of full-state arguments by
+        ``model.position_names``. Arguments of size 2 are used as given.
     **kwargs
         Passed to :class:`matplotlib.patches.Ellipse` (default: unfilled).
 
     Returns
     -------
     matplotlib.patches.Ellipse
+
+    Raises
+    ------
+    ValueError
+        If ``mean`` or ``cov`` is neither planar nor, with ``model``, of the
+        model's state size, or ``cov`` is not a covariance.
     """
+    mean = _planar("mean", as_array("mean", mean, ndim=1), model, "(2,)")
+    cov = _planar("cov", as_array("cov", cov, ndim=2), model, "(2, 2)", square=True)
     mean = as_vector("mean", mean, 2)
     cov = as_covariance("cov", cov, 2)
     n_std = as_positive_float("n_std", n_std)
@@ -98,45 +172,93 @@ def covariance_ellipse(ax, mean, cov, n_std: float = 2.0, **kwargs):
 
 
 def plot_track(ax, truth_xy, meas_xy=None, est_xy=None, covs_xy=None, every: int = 10,
-               n_std: float = 2.0, unit: str = "m"):
+               n_std: float = 2.0, unit: str = "m", *, model=None):
     """Plane trajectory: truth, measurements, estimate and covariance ellipses.
+
+    The positions are checked, never guessed: a state vector holds the
+    positions in different columns from model to model (``[x1, x1_dot, x2,
+    x2_dot]`` for ``bf.models.damped_particle()``, ``[r_x, r_y, v_x, v_y]``
+    for ``bf.models.range_bearing()``). Pass either the two position columns
+    (width 2) or full states together with ``model=``; full states without a
+    model are refused::
+
+        bf.plotting.plot_track(ax, sim.xs, ys, res.means, res.covs, model=model)
 
     Parameters
     ----------
-    truth_xy : array_like, shape (T, 2)
-    meas_xy, est_xy : array_like, shape (T, 2), optional
-    covs_xy : array_like, shape (T, 2, 2), optional
-        Position covariances; an ellipse is drawn every ``every`` steps.
+    ax : matplotlib.axes.Axes
+    truth_xy : array_like, shape (T, 2) or (T, n)
+        True positions; full states (n = ``model.state_dim``) only with ``model``.
+    meas_xy : array_like, shape (M, 2), optional
+        Measurements converted to positions in the plane (NaN for a gap).
+    est_xy : array_like, shape (T, 2) or (T, n), optional
+        Estimated positions (filter means); full states only with ``model``.
+    covs_xy : array_like, shape (T, 2, 2) or (T, n, n), optional
+        Position covariances, or full state covariances with ``model``; an
+        ellipse is drawn every ``every`` steps. Needs ``est_xy``.
+    every : int
+        Steps between two ellipses (>= 1).
+    n_std : float
+        Ellipse radius in standard deviations.
+    unit : str
+        Unit of the positions, for the axis labels ("" for none).
+    model : LinearGaussian or NonlinearGaussian, optional
+        The model of the states; its ``position_names`` select the position
+        columns of full-state arguments and label the axes.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Raises
+    ------
+    ValueError
+        If an array is neither planar (width 2) nor, with ``model``, of the
+        model's state width; if a full-state array comes without ``model``;
+        if the lengths differ or a covariance is not positive semi-definite.
+    TypeError
+        If ``model`` is not a bayesfilt model.
     """
-    truth = as_array("truth_xy", truth_xy, ndim=2)
-    if truth.shape[1] != 2:
-        raise ValueError(f"truth_xy must have shape (T, 2), got shape {truth.shape}")
+    # Every argument is checked before anything is drawn: no half-drawn axes on an error.
+    cols = _position_columns(model)  # checks the model first, even for planar arrays
+    truth = _planar("truth_xy", as_array("truth_xy", truth_xy, ndim=2), model, "(T, 2)")
     every = as_int("every", every, minimum=1)
+    n_std = as_positive_float("n_std", n_std)
     if covs_xy is not None and est_xy is None:
         raise ValueError("covs_xy needs est_xy: the ellipses are centred on the estimates")
-    ax.plot(truth[:, 0], truth[:, 1], "k-", lw=1.5, label="truth")
+    meas = est = covs = None
     if meas_xy is not None:
         meas = as_array("meas_xy", meas_xy, ndim=2, finite=False)
         if meas.shape[1] != 2:
-            raise ValueError(f"meas_xy must have shape (T, 2), got shape {meas.shape}")
-        ax.plot(meas[:, 0], meas[:, 1], ".", color="tab:gray", ms=3, alpha=0.7, label="measurements")
+            raise ValueError(f"meas_xy must have shape (M, 2) (measured positions in the plane; "
+                             f"measurements are not states, so model= does not apply), "
+                             f"got shape {meas.shape}")
     if est_xy is not None:
-        est = as_array("est_xy", est_xy, ndim=2)
+        est = _planar("est_xy", as_array("est_xy", est_xy, ndim=2), model, "(T, 2)")
         if est.shape != truth.shape:
             raise ValueError(f"est_xy must have shape {truth.shape}, got shape {est.shape}")
+    if covs_xy is not None:
+        covs = _planar("covs_xy", as_array("covs_xy", covs_xy, ndim=3), model, "(T, 2, 2)",
+                       square=True)
+        if covs.shape != (truth.shape[0], 2, 2):
+            raise ValueError(f"covs_xy must have shape ({truth.shape[0]}, 2, 2), "
+                             f"got shape {covs.shape}")
+        for t in range(0, truth.shape[0], every):
+            as_covariance(f"covs_xy[{t}]", covs[t], 2)
+    ax.plot(truth[:, 0], truth[:, 1], "k-", lw=1.5, label="truth")
+    if meas is not None:
+        ax.plot(meas[:, 0], meas[:, 1], ".", color="tab:gray", ms=3, alpha=0.7, label="measurements")
+    if est is not None:
         ax.plot(est[:, 0], est[:, 1], "-", color="tab:blue", lw=1.2, label="estimate")
-        if covs_xy is not None:
-            covs = as_array("covs_xy", covs_xy, ndim=3)
-            if covs.shape != (truth.shape[0], 2, 2):
-                raise ValueError(f"covs_xy must have shape ({truth.shape[0]}, 2, 2), "
-                                 f"got shape {covs.shape}")
-            for t in range(0, truth.shape[0], every):
-                try:
-                    covariance_ellipse(ax, est[t], covs[t], n_std, color="tab:blue", alpha=0.6, lw=0.8)
-                except ValueError as exc:
-                    raise ValueError(f"covs_xy[{t}]: {exc}") from None
-    ax.set_xlabel(_label("position $x^1$", unit))
-    ax.set_ylabel(_label("position $x^2$", unit))
+    if covs is not None:
+        for t in range(0, truth.shape[0], every):
+            covariance_ellipse(ax, est[t], covs[t], n_std, color="tab:blue", alpha=0.6, lw=0.8)
+    if cols is None:
+        xname, yname = "position $x^1$", "position $x^2$"
+    else:
+        xname, yname = (f"position {a}" for a in model.position_names)
+    ax.set_xlabel(_label(xname, unit))
+    ax.set_ylabel(_label(yname, unit))
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(loc="best", fontsize="small")
     return ax

@@ -9,6 +9,14 @@ Run it after every edit to a notebook or to the ``bayesfilt`` code it uses,
 then commit the saved notebooks: ``pytest`` re-executes them under strict
 nbval and fails if a stored output differs from what the code produces now.
 Per-cell run times are printed so that a slow cell shows up (aim: < 5 s).
+
+A re-run on unchanged code writes a byte-identical file, so that a diff
+shows only real changes. What changes from run to run is not saved: the
+per-cell timestamps, and the state of live widgets (``metadata.widgets``,
+with fresh random model ids each run, and the ``widget-view`` pointers into
+it). A widget's output keeps its ``text/plain`` fallback, which is what a
+saved notebook can show without a kernel anyway; nbval does not compare
+widget views (their ids are random).
 """
 
 from __future__ import annotations
@@ -16,6 +24,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from datetime import datetime
 from pathlib import Path
 
 import nbformat
@@ -23,43 +32,80 @@ from nbclient import NotebookClient
 
 ROOT = Path(__file__).resolve().parents[1]
 MAX_BYTES = 1_000_000
+SLOW_SECONDS = 5.0
+WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
+KERNELSPEC = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+
+
+def strip_volatile(nb) -> list[tuple[int, float]]:
+    """Remove what differs between two runs of unchanged code, in place.
+
+    Drops each code cell's ``metadata.execution`` timestamps, the notebook's
+    widget state ``metadata.widgets`` and every ``widget-view`` entry of the
+    outputs (an output left with no data at all is dropped).
+
+    Parameters
+    ----------
+    nb : nbformat.NotebookNode
+        An executed notebook (nbformat 4).
+
+    Returns
+    -------
+    list of (int, float)
+        ``(execution_count, seconds)`` of the cells slower than 5 s, read
+        from the timestamps before they are removed.
+    """
+    if not isinstance(nb, nbformat.NotebookNode) or "cells" not in nb:
+        raise TypeError(f"nb must be an nbformat NotebookNode with cells, got {type(nb).__name__}")
+    slow = []
+    for cell in nb.cells:
+        if cell.cell_type != "code":
+            continue
+        timing = cell.metadata.pop("execution", {})
+        t0, t1 = timing.get("iopub.execute_input"), timing.get("shell.execute_reply")
+        if t0 and t1:
+            dt = (datetime.fromisoformat(t1.rstrip("Z"))
+                  - datetime.fromisoformat(t0.rstrip("Z"))).total_seconds()
+            if dt > SLOW_SECONDS:
+                slow.append((cell.execution_count, dt))
+        outputs = []
+        for out in cell.get("outputs", []):
+            data = out.get("data")
+            if data is not None and WIDGET_VIEW in data:
+                del data[WIDGET_VIEW]
+                if not data:
+                    continue  # nothing but a pointer to the dropped widget state
+            outputs.append(out)
+        if "outputs" in cell:
+            cell.outputs = outputs
+    nb.metadata.pop("widgets", None)
+    return slow
 
 
 def run(path: Path, timeout: int = 600) -> None:
+    """Execute the notebook at ``path`` in a fresh ``python3`` kernel and save it in place."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"path must be an existing notebook file, got {str(path)!r}")
     nb = nbformat.read(path, as_version=4)
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)",
-                                 "language": "python"}
+    nb.metadata["kernelspec"] = dict(KERNELSPEC)
     client = NotebookClient(nb, timeout=timeout, kernel_name="python3",
                             resources={"metadata": {"path": str(path.parent)}},
                             record_timing=True)
     start = time.perf_counter()
     client.execute()
     total = time.perf_counter() - start
-    slow = []
-    for cell in nb.cells:
-        if cell.cell_type != "code":
-            continue
-        timing = cell.metadata.get("execution", {})
-        t0, t1 = timing.get("iopub.execute_input"), timing.get("shell.execute_reply")
-        if t0 and t1:
-            from datetime import datetime
-            dt = (datetime.fromisoformat(t1.rstrip("Z")) - datetime.fromisoformat(t0.rstrip("Z"))).total_seconds()
-            if dt > 5:
-                slow.append((cell.execution_count, dt))
-        # Timestamps would make every re-run a diff; keep outputs only.
-        cell.metadata.pop("execution", None)
-    nb.metadata.pop("widgets", None) if not _has_widgets(nb) else None
+    slow = strip_volatile(nb)
     nbformat.write(nb, path)
     size = path.stat().st_size
-    print(f"{path.relative_to(ROOT)}: {total:.1f} s, {size / 1e3:.0f} kB"
-          + "".join(f"\n  cell [{n}] took {dt:.1f} s (> 5 s)" for n, dt in slow))
+    try:
+        shown = path.resolve().relative_to(ROOT)
+    except ValueError:  # a notebook outside the repository, e.g. a scratch copy
+        shown = path
+    print(f"{shown}: {total:.1f} s, {size / 1e3:.0f} kB"
+          + "".join(f"\n  cell [{n}] took {dt:.1f} s (> {SLOW_SECONDS:g} s)" for n, dt in slow))
     if size > MAX_BYTES:
         print(f"  WARNING: {size} bytes is over the 1 MB limit", file=sys.stderr)
-
-
-def _has_widgets(nb) -> bool:
-    return any("application/vnd.jupyter.widget-view+json" in out.get("data", {})
-               for cell in nb.cells if cell.cell_type == "code" for out in cell.get("outputs", []))
 
 
 def main(argv=None) -> int:

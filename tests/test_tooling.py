@@ -1,0 +1,335 @@
+"""Tests of the course tooling: pytest set-up, the notebook runner, the declared dependencies.
+
+These guard the promise of the README that ``pytest`` and the notebooks give
+the same result on a student's machine as in CI: from any working folder,
+with pytest-xdist, and that re-running the notebooks on unchanged code
+changes no byte.
+"""
+
+from __future__ import annotations
+
+import configparser
+import importlib.util
+import json
+import os
+import re
+import subprocess
+import sys
+import textwrap
+import tomllib
+from pathlib import Path
+from types import SimpleNamespace
+
+import nbformat
+import pytest
+from packaging.requirements import Requirement
+from packaging.version import Version
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _load(name: str, path: Path):
+    """Import a file that is not in a package (the root conftest, a tool) under its own name."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+course_conftest = _load("_course_conftest", ROOT / "conftest.py")
+runner = _load("_run_notebooks", ROOT / "tools" / "run_notebooks.py")
+
+# A pytest plugin for the subprocesses below: after collection it does what
+# nbval does when a notebook starts (open the sanitiser named by the option,
+# from the working directory) and prints what it found, plus xdist's mode.
+PROBE = '''
+import json
+
+
+def pytest_collection_finish(session):
+    from nbval.plugin import IPyNbFile
+
+    option = session.config.option
+    files = {item.parent for item in session.items if isinstance(item.parent, IPyNbFile)}
+    patterns = {}
+    for nb_file in files:
+        nb_file.setup_sanitize_files()  # what nbval's IPyNbFile.setup does, without a kernel
+        patterns.update(nb_file.sanitize_patterns)
+    print("PROBE " + json.dumps({
+        "sanitize_with": option.nbval_sanitize_with,
+        "notebooks": len(files),
+        "patterns": sorted(patterns.values()),
+        "dist": getattr(option, "dist", None),
+    }))
+'''
+
+
+def _smallest_notebook() -> Path:
+    notebooks = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"), key=lambda p: p.stat().st_size)
+    assert notebooks, "no notebooks/NN_*.ipynb found"
+    return notebooks[0]
+
+
+def _run_pytest(args, cwd: Path, probe_dir: Path) -> tuple[subprocess.CompletedProcess, dict]:
+    (probe_dir / "course_probe.py").write_text(PROBE)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(probe_dir)] + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else [])))
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-p", "course_probe", *args],
+                          cwd=cwd, env=env, capture_output=True, text=True, timeout=120)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("PROBE ")]
+    probe = json.loads(lines[-1][len("PROBE "):]) if lines else {}
+    return proc, probe
+
+
+def _sanitize_replacements() -> list[str]:
+    """The replacement strings of notebooks/sanitize.cfg, read independently of nbval."""
+    cfg = configparser.RawConfigParser()
+    cfg.read(ROOT / "notebooks" / "sanitize.cfg", encoding="utf-8")
+    return sorted(cfg[section]["replace"] for section in cfg.sections())
+
+
+# --------------------------------------------------------------------------
+# Issue 8, item 1: pytest from any folder
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("where", ["outside", "tests"])
+def test_pytest_finds_the_sanitiser_from_any_folder(tmp_path, where):
+    """From a folder that is not the root, collection works and nbval can open sanitize.cfg."""
+    notebook = _smallest_notebook()
+    if where == "outside":
+        cwd, args = tmp_path, [str(ROOT / "tests" / "test_plotting.py"), str(notebook)]
+    else:
+        cwd, args = ROOT / "tests", ["test_plotting.py", os.path.relpath(notebook, ROOT / "tests")]
+    proc, probe = _run_pytest([*args, "--collect-only", "-q"], cwd, tmp_path)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out
+    assert "ERROR" not in proc.stdout and not re.search(r"\d+ errors?\b", proc.stdout), out
+    assert probe, f"the probe plugin did not run:\n{out}"
+    assert probe["notebooks"] == 1, out
+    assert Path(probe["sanitize_with"]).is_absolute(), probe
+    # Each rule of sanitize.cfg was loaded, exactly as nbval loads them.
+    assert probe["patterns"] == _sanitize_replacements() != []
+    # Some unit tests and some cells were collected.
+    assert "test_plotting.py::" in proc.stdout and ".ipynb::Cell 0" in proc.stdout, out
+
+
+def test_sanitiser_is_not_a_relative_path_in_addopts():
+    """nbval opens --nbval-sanitize-with from the working directory: addopts must not name it."""
+    ini = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["pytest"]["ini_options"]
+    assert "sanitize" not in ini["addopts"]
+    assert "--nbval" in ini["addopts"].split()
+
+
+def test_default_sanitiser_respects_the_command_line():
+    option = SimpleNamespace(nbval_sanitize_with=None, sanitize_with=None)
+    course_conftest.set_default_sanitizer(option)
+    assert option.nbval_sanitize_with == str(ROOT / "notebooks" / "sanitize.cfg")
+    assert Path(option.nbval_sanitize_with).is_file()
+
+    option = SimpleNamespace(nbval_sanitize_with="mine.cfg", sanitize_with=None)
+    course_conftest.set_default_sanitizer(option)
+    assert option.nbval_sanitize_with == "mine.cfg"
+
+    # nbval's deprecated alias is copied over by nbval itself; setting both would be an error.
+    option = SimpleNamespace(nbval_sanitize_with=None, sanitize_with="old.cfg")
+    course_conftest.set_default_sanitizer(option)
+    assert option.nbval_sanitize_with is None
+
+    option = SimpleNamespace()  # nbval not loaded (-p no:nbval): nothing to set
+    course_conftest.set_default_sanitizer(option)
+    assert not hasattr(option, "nbval_sanitize_with")
+
+
+# --------------------------------------------------------------------------
+# Issue 8, item 3: pytest-xdist keeps each notebook in one kernel
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("given,want", [
+    (dict(numprocesses=2, dist="no", distload=False), "loadfile"),    # pytest -n 2
+    (dict(numprocesses="auto", dist="no", distload=False), "loadfile"),
+    (dict(numprocesses=2, dist="load", distload=False), "load"),      # explicit --dist load
+    (dict(numprocesses=2, dist="loadscope", distload=False), "loadscope"),
+    (dict(numprocesses=2, dist="no", distload=True), "no"),           # --distload: xdist sets load
+    (dict(numprocesses=None, dist="no", distload=False), "no"),       # no -n
+    (dict(numprocesses=0, dist="no", distload=False), "no"),          # -n 0
+])
+def test_xdist_default_mode_becomes_loadfile(given, want):
+    option = SimpleNamespace(**given)
+    course_conftest.keep_notebooks_whole(option)
+    assert option.dist == want
+
+
+def test_no_xdist_no_change():
+    option = SimpleNamespace(nbval_sanitize_with=None)
+    course_conftest.keep_notebooks_whole(option)
+    assert vars(option) == {"nbval_sanitize_with": None}
+
+
+def test_xdist_run_uses_loadfile(tmp_path):
+    pytest.importorskip("xdist", reason="pytest-xdist is not a course dependency")
+    proc, probe = _run_pytest([str(_smallest_notebook()), "-n", "2", "--collect-only", "-q"],
+                              tmp_path, tmp_path)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert probe["dist"] == "loadfile"
+
+
+# --------------------------------------------------------------------------
+# Issue 8, item 2: a student's matplotlibrc does not change the figures
+# --------------------------------------------------------------------------
+
+STYLE_PROBE = textwrap.dedent('''
+    import json
+    import matplotlib
+    matplotlib.use("module://matplotlib_inline.backend_inline")  # what %matplotlib inline selects
+    import matplotlib.pyplot as plt
+    import bayesfilt as bf
+
+    before = {k: matplotlib.rcParams[k] for k in ("figure.constrained_layout.use", "lines.linewidth")}
+    bf.plotting.use_course_style()
+    rc = matplotlib.rcParams
+    fig = plt.figure()
+    print(json.dumps({
+        "before": before,
+        "constrained": rc["figure.constrained_layout.use"],
+        "linewidth": rc["lines.linewidth"],
+        "figsize": list(rc["figure.figsize"]),
+        "grid": rc["axes.grid"],
+        "backend": matplotlib.get_backend(),
+        "figure": [fig.get_figwidth(), fig.get_figheight(), fig.dpi],
+    }))
+''')
+
+
+def test_course_style_overrides_a_students_matplotlibrc(tmp_path):
+    rc_dir = tmp_path / "rc"
+    rc_dir.mkdir()
+    (rc_dir / "matplotlibrc").write_text("figure.constrained_layout.use: True\n"
+                                         "lines.linewidth: 7\n"
+                                         "figure.figsize: 5, 5\n")
+    env = dict(os.environ, MATPLOTLIBRC=str(rc_dir / "matplotlibrc"))
+    proc = subprocess.run([sys.executable, "-c", STYLE_PROBE], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    # The student's file was read, so the check below is not vacuous ...
+    assert got["before"] == {"figure.constrained_layout.use": True, "lines.linewidth": 7.0}
+    # ... and use_course_style undid it: matplotlib's defaults, then the course's settings.
+    from matplotlib import rcParamsDefault
+    assert got["constrained"] is rcParamsDefault["figure.constrained_layout.use"] is False
+    assert got["linewidth"] == rcParamsDefault["lines.linewidth"]
+    assert got["figsize"] == list(bf_course_style()["figure.figsize"])
+    assert got["grid"] is True
+    assert got["figure"] == [*bf_course_style()["figure.figsize"], bf_course_style()["figure.dpi"]]
+    # The backend chosen by %matplotlib inline survives the reset.
+    assert got["backend"] == "module://matplotlib_inline.backend_inline"
+
+
+def bf_course_style() -> dict:
+    import bayesfilt as bf
+    return bf.plotting.COURSE_STYLE
+
+
+# --------------------------------------------------------------------------
+# Issue 8, item 4: the runner saves nothing that changes from run to run
+# --------------------------------------------------------------------------
+
+def _widget_notebook():
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["widgets"] = {"application/vnd.jupyter.widget-state+json": {"state": {"abc": {}}}}
+    view = {"model_id": "abc", "version_major": 2, "version_minor": 0}
+    code = nbformat.v4.new_code_cell("slider", execution_count=1, outputs=[
+        nbformat.v4.new_output("display_data", data={runner.WIDGET_VIEW: view,
+                                                     "text/plain": "IntSlider(value=3)"}),
+        nbformat.v4.new_output("display_data", data={runner.WIDGET_VIEW: view}),
+        nbformat.v4.new_output("stream", name="stdout", text="3\n"),
+    ])
+    code.metadata["execution"] = {"iopub.execute_input": "2024-01-01T00:00:00.000000Z",
+                                  "shell.execute_reply": "2024-01-01T00:00:06.500000Z"}
+    fast = nbformat.v4.new_code_cell("1 + 1", execution_count=2)
+    fast.metadata["execution"] = {"iopub.execute_input": "2024-01-01T00:00:07.000000Z",
+                                  "shell.execute_reply": "2024-01-01T00:00:07.100000Z"}
+    return nbformat.from_dict(dict(nb, cells=[nbformat.v4.new_markdown_cell("# t"), code, fast]))
+
+
+def test_strip_volatile_keeps_the_text_fallback_of_widgets():
+    nb = _widget_notebook()
+    slow = runner.strip_volatile(nb)
+    assert slow == [(1, 6.5)]
+    assert "widgets" not in nb.metadata
+    code = nb.cells[1]
+    assert "execution" not in code.metadata and "execution" not in nb.cells[2].metadata
+    # The view pointer is gone, its text fallback and the other outputs stay.
+    assert [dict(o.get("data", {})) for o in code.outputs] == [{"text/plain": "IntSlider(value=3)"}, {}]
+    assert code.outputs[1].output_type == "stream"
+    nbformat.validate(nb)
+
+
+def test_strip_volatile_rejects_a_non_notebook():
+    with pytest.raises(TypeError, match="nb must be"):
+        runner.strip_volatile({"cells": []})
+
+
+def test_rerun_of_unchanged_notebook_is_byte_identical(tmp_path):
+    """Two runs of the runner on a notebook with a live widget write the same bytes."""
+    pytest.importorskip("ipywidgets")
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell("import ipywidgets\nipywidgets.IntSlider(value=3)"),
+                nbformat.v4.new_code_cell("print(2 + 2)")]
+    path = tmp_path / "widget.ipynb"
+    nbformat.write(nb, path)
+    runner.run(path, timeout=60)
+    first = path.read_bytes()
+    runner.run(path, timeout=60)
+    assert path.read_bytes() == first
+    saved = json.loads(first)
+    assert "widgets" not in saved["metadata"]
+    (out,) = saved["cells"][0]["outputs"]
+    assert runner.WIDGET_VIEW not in out["data"] and "IntSlider" in "".join(out["data"]["text/plain"])
+    assert "".join(saved["cells"][1]["outputs"][0]["text"]) == "4\n"
+    assert saved["metadata"]["kernelspec"]["name"] == "python3"
+
+
+def test_runner_rejects_a_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="path must be an existing notebook"):
+        runner.run(tmp_path / "missing.ipynb")
+
+
+# --------------------------------------------------------------------------
+# Issue 8, item 5: declared lower bounds install together
+# --------------------------------------------------------------------------
+
+# First releases that work with numpy 2 (built against it): scipy 1.13.0
+# (release notes: "first release to support numpy 2.0"), matplotlib 3.8.4
+# ("released wheels are built against numpy 2"). Earlier wheels fail on import.
+FIRST_FOR_NUMPY_2 = {"scipy": Version("1.13"), "matplotlib": Version("3.8.4")}
+
+
+def _declared() -> dict[str, Requirement]:
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    return {Requirement(r).name: Requirement(r) for r in project["dependencies"]}
+
+
+def _lower_bound(req: Requirement) -> Version:
+    lows = [Version(s.version) for s in req.specifier if s.operator in (">=", "==", "~=")]
+    assert lows, f"{req} has no lower bound"
+    return max(lows)
+
+
+def test_lower_bounds_are_compatible_with_numpy_2():
+    declared = _declared()
+    assert _lower_bound(declared["numpy"]) >= Version("2")
+    for name, first in FIRST_FOR_NUMPY_2.items():
+        assert _lower_bound(declared[name]) >= first, (
+            f"{declared[name]} admits a release built for numpy 1; numpy 2 needs {name}>={first}")
+
+
+def test_lock_file_satisfies_the_declared_bounds():
+    pins = {}
+    for line in (ROOT / "requirements.txt").read_text().splitlines():
+        line = line.split("#")[0].strip()
+        if line and not line.startswith("-"):
+            req = Requirement(line)
+            pins[req.name] = next(iter(req.specifier)).version
+    for name, req in _declared().items():
+        assert name in pins, f"{name} is a dependency of bayesfilt but not pinned in requirements.txt"
+        assert req.specifier.contains(pins[name]), f"requirements.txt pins {name}=={pins[name]}, outside {req}"
