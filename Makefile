@@ -2,7 +2,7 @@
 #   make lab        read and run the course in JupyterLab
 #   make test       unit tests + every notebook under strict nbval
 #   make notebooks  re-execute and save every notebook (after an edit)
-#   make bench      benchmarks against filterpy
+#   make bench      benchmarks against filterpy (and particles, if its venv exists)
 VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
@@ -25,3 +25,5 @@ notebooks: $(BIN)/.installed
 
 bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_kalman.py
+	$(BIN)/python benchmarks/bench_resampling.py
+	$(BIN)/python benchmarks/bench_particle.py
