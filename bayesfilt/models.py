@@ -181,10 +181,11 @@ class _ModelBase:
         rng = as_rng("rng", rng)
         batch, single = _as_states("xs", xs, self.state_dim)
         mean = self.transition_mean(batch, u, t)
-        # w = L z with L L^T = Q, z ~ N(0, I): one noise draw per particle
-        w = rng.standard_normal((batch.shape[0], self.noise_dim)) @ _noise_factor(self.Q).T
+        # G w = G L z with L L^T = Q, z ~ N(0, I): one noise draw per particle
+        GL = self.G @ _noise_factor(self.Q)
+        z = rng.standard_normal((batch.shape[0], self.noise_dim))
         # x_{t+1} = f(x_t) (+ B u_t) + G w_t
-        out = mean + w @ self.G.T
+        out = mean + z @ GL.T
         return out[0] if single else out
 
     def sample_measurement(self, rng: np.random.Generator, xs) -> np.ndarray:
