@@ -81,6 +81,7 @@ __all__ = [
     "weighted_mean_cov",
     "sis_step",
     "optimal_proposal",
+    "transition_proposal",
     "particle_filter",
 ]
 
@@ -359,6 +360,30 @@ def _normalize_or_explain(lw, t, y):
 
 
 # --------------------------------------------------------------------------
+# Proposals (chapter 05)
+# --------------------------------------------------------------------------
+
+def transition_proposal(model) -> Proposal:
+    r"""The transition :math:`p(x_t \mid x_{t-1})` written as an explicit :class:`Proposal`.
+
+    ``particle_filter(..., proposal=None)`` uses the transition directly and
+    skips the two densities that cancel; this explicit version goes through
+    eq. (13) in full and must give the same weights (a check of eq. (13), and
+    the starting point for a proposal of your own). It translates the
+    proposal's time (that of the new state t) to the model's (that of the
+    state the step starts from, t - 1). Needs a transition density
+    (:math:`G Q G^T` invertible).
+    """
+    def sample(rng, x_prev, y, t):
+        return model.sample_transition(rng, x_prev, t=t - 1)
+
+    def logpdf(x, x_prev, y, t):
+        return model.transition_logpdf(x, x_prev, t=t - 1)
+
+    return Proposal(sample, logpdf)
+
+
+# --------------------------------------------------------------------------
 # The optimal proposal of a linear-Gaussian model (chapter 05)
 # --------------------------------------------------------------------------
 
@@ -398,8 +423,13 @@ def optimal_proposal(model) -> Proposal:
         raise ValueError("optimal_proposal: model has a control matrix B; build it without B")
     A, C, R = model.A, model.C, model.R
     Qt = model.G @ model.Q @ model.G.T
-    _cholesky("G Q G^T (the transition noise covariance; the optimal proposal needs a "
-              "transition density)", Qt)
+    rank = int(np.linalg.matrix_rank(Qt))
+    if rank < Qt.shape[0]:
+        raise ValueError(
+            f"optimal_proposal needs a transition density, i.e. G Q G^T of full rank "
+            f"{Qt.shape[0]}, got rank {rank}: part of the state moves deterministically. "
+            f"Use proposal=None (the bootstrap), which is already optimal when C G = 0 "
+            f"(the measurement does not see the noisy components directly)")
     S = C @ Qt @ C.T + R
     # K = Q~ C^T S^{-1}
     K = np.linalg.solve(S, C @ Qt).T
@@ -468,8 +498,10 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     For t = 0, ..., T-1 (seed 000 §3.2, steps [1]-[5]; Arulampalam et al.
     2002, Algorithm 4):
 
-    1. t = 0: draw N particles from the prior :math:`N(m_0, P_0)` (step [1]);
-       t >= 1: move each particle with the proposal (step [2]);
+    1. t = 0: draw N particles from the prior :math:`N(m_0, P_0)` (step [1];
+       the proposal is not used at t = 0: the first weights are the
+       likelihoods :math:`p(y_0 \mid x_0^i)`); t >= 1: move each particle
+       with the proposal (step [2]);
     2. weight them by eq. (13), normalise in the log domain (step [3]) and
        record the weighted mean, covariance and ESS;
     3. if ``ESS < ess_threshold * N`` (always when ``ess_threshold == 1``),

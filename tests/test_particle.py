@@ -73,6 +73,18 @@ def test_weighted_mean_cov_against_numpy():
 # One SIS step (seed 001, eq. (13))
 # --------------------------------------------------------------------------
 
+def test_transition_proposal_passes_the_old_state_time_to_the_model():
+    # On UNGM the cosine term makes an off-by-one in t visible: q's mean at t must be
+    # f(x_{t-1}, t - 1), i.e. contain 8 cos(1.2 t).
+    model = bf.models.ungm()
+    q = bf.particle.transition_proposal(model)
+    xp = np.zeros((200_000, 1))
+    draws = q.sample(np.random.default_rng(0), xp, None, 3)
+    assert abs(draws.mean() - 8 * np.cos(1.2 * 3)) < 5 * np.sqrt(10 / len(draws))
+    ref = stats.norm.logpdf(1.0, 8 * np.cos(1.2 * 3), np.sqrt(10))
+    np.testing.assert_allclose(q.logpdf(np.ones((1, 1)), np.zeros((1, 1)), None, 3), ref, rtol=1e-12)
+
+
 def test_bootstrap_step_equals_eq_13_with_the_transition_as_proposal():
     # The bootstrap shortcut (weight = likelihood) against eq. (13) written out
     # with q = p(x_t | x_{t-1}): same draws, same normalised weights.
@@ -80,9 +92,7 @@ def test_bootstrap_step_equals_eq_13_with_the_transition_as_proposal():
     rng = np.random.default_rng(1)
     X = rng.standard_normal((200, 2))
     lw = bf.particle.log_normalize(rng.standard_normal(200))[0]
-    prior_q = bf.particle.Proposal(
-        sample=lambda r, xp, y, t: model.sample_transition(r, xp, t=t - 1),
-        logpdf=lambda x, xp, y, t: model.transition_logpdf(x, xp, t=t - 1))
+    prior_q = bf.particle.transition_proposal(model)
     a = bf.particle.sis_step(model, np.random.default_rng(7), X, lw, [0.4], t=1)
     b = bf.particle.sis_step(model, np.random.default_rng(7), X, lw, [0.4], t=1, proposal=prior_q)
     np.testing.assert_array_equal(a.particles, b.particles)
@@ -114,7 +124,7 @@ def test_optimal_proposal_weight_is_the_predictive_likelihood():
 
 
 def test_optimal_proposal_needs_a_transition_density():
-    with pytest.raises(ValueError, match="G Q G\\^T"):
+    with pytest.raises(ValueError, match=r"G Q G\^T of full rank 4, got rank 2.*proposal=None"):
         bf.particle.optimal_proposal(bf.models.damped_particle())
     with pytest.raises(TypeError, match="LinearGaussian"):
         bf.particle.optimal_proposal(bf.models.ungm())
