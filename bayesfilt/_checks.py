@@ -126,21 +126,26 @@ def as_covariance(name: str, value, size: int | None = None, *, definite: bool =
         Require strict positive definiteness (invertibility).
     rtol : float
         Tolerance, relative to the largest absolute entry, for symmetry and
-        for the smallest eigenvalue.
+        for strict definiteness.
+
+    Every diagonal entry (a variance) must be >= 0 exactly; the smallest
+    eigenvalue may be below zero by rounding, 1e-12 * n * max |entry|.
     """
     a = as_square(name, value, size)
     scale = max(float(np.max(np.abs(a))), 1e-300)
     asym = float(np.max(np.abs(a - a.T)))
     if asym > rtol * scale:
         raise ValueError(f"{name} must be symmetric, got max |{name} - {name}^T| = {asym:.3g}")
-    # Rounding moves an eigenvalue by about n eps |a|; allow a few thousand times that,
-    # but no variance may be negative, however large the other entries are.
-    tol = 1e-12 * scale * a.shape[0]
+    # A variance cannot be negative: the diagonal entries are the matrix's own numbers,
+    # not computed from it, so no tolerance (however large the other entries are).
     diag = np.diag(a)
-    if np.any(diag < -tol):
-        i = int(np.argmin(diag))
+    if np.any(diag < 0):
+        i = int(np.flatnonzero(diag < 0)[0])
         raise ValueError(f"{name} must be positive semi-definite, got a negative variance "
                          f"{name}[{i}, {i}] = {diag[i]:.3g}")
+    # The eigenvalues are computed, and rounding moves them by about n eps |a|: allow a
+    # few thousand times that below zero.
+    tol = 1e-12 * scale * a.shape[0]
     eig_min = float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
     if eig_min < -tol:
         raise ValueError(f"{name} must be positive semi-definite, got smallest eigenvalue {eig_min:.3g}")

@@ -31,6 +31,15 @@ tools the course needs around it. Import it as ``bf.gaussian``::
     nees = bf.gaussian.squared_mahalanobis(xs - res.means, res.covs)   # (100,)
     low, high = bf.gaussian.chi2_interval(dof=4, n_runs=1)
 
+    # ... and whiteness of the innovations: the autocorrelation of the normalised
+    # innovations at lags 1..20, about 95 % of it inside +-1.96 / sqrt(T)
+    z = bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)  # (100, 2)
+    acf = bf.gaussian.autocorrelation(z, max_lag=20)                              # (20, 2)
+    band = 1.96 / np.sqrt(len(z))
+
+(With missing measurements, select the observed rows first:
+``res.innovations[res.observed]``, ``res.innovation_covs[res.observed]``.)
+
 Conditioning (seed 000, Theorem 10.2, eqs. (10.24)-(10.25)). Kay states
 the theorem for :math:`y` given :math:`x`; the Kalman update needs it with
 the roles swapped, which is what :func:`condition` computes:
@@ -53,8 +62,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy import linalg as sla
 from scipy import stats
+from scipy.linalg.lapack import dtrtri as _dtrtri
+from scipy.linalg.lapack import dtrtrs as _dtrtrs
 
-from ._checks import (as_array, as_covariance, as_int, as_matrix, as_rng, as_vector)
+from ._checks import (as_array, as_covariance, as_int, as_matrix, as_rng, as_square, as_vector)
 
 __all__ = [
     "Gaussian",
@@ -63,6 +74,8 @@ __all__ = [
     "sample",
     "squared_mahalanobis",
     "chi2_interval",
+    "normalised_innovations",
+    "autocorrelation",
     "Interval",
 ]
 
@@ -100,6 +113,34 @@ def _factor(cov: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         vals, vecs = np.linalg.eigh(cov)
         return vecs * np.sqrt(np.clip(vals, 0.0, None))
+
+
+def _finite_or_missing(example: str, name: str, value) -> np.ndarray:
+    """``as_array(name, value)``; a NaN gets a message on the missing rows of a filter result.
+
+    A filter leaves NaN innovations and innovation covariances on the rows
+    whose measurement was missing; the message says how to leave them out,
+    with a call of the function ``example``.
+    """
+    a = as_array(name, value, finite=False)
+    nan = np.isnan(a)
+    if nan.any():
+        index = tuple(int(i) for i in np.argwhere(nan)[0])
+        raise ValueError(
+            f"{name} must be finite, got NaN at index {index}. A filter result has NaN "
+            "innovations and innovation covariances on the rows whose measurement was missing: "
+            f"select the observed rows, e.g. {example}(res.innovations[res.observed], "
+            "res.innovation_covs[res.observed])")
+    return as_array(name, a)  # an inf gets the plain message
+
+
+def _agreed_size(sizes: list[int]) -> int:
+    """The size most arguments agree on (a tie goes to the first listed).
+
+    Several arguments fix one dimension; taking the majority's size means the
+    argument that disagrees is the one named in the error.
+    """
+    return max(sizes, key=sizes.count)
 
 
 def condition(mean_x, mean_y, cov_xx, cov_xy, cov_yy, y) -> Gaussian:
@@ -142,13 +183,21 @@ def condition(mean_x, mean_y, cov_xx, cov_xy, cov_yy, y) -> Gaussian:
         positive definite, or blocks that do not form a positive
         semi-definite joint covariance.
     """
-    mean_x = as_vector("mean_x", mean_x)
-    k = mean_x.shape[0]
-    mean_y = as_vector("mean_y", mean_y)
-    l_ = mean_y.shape[0]
+    # k is fixed by mean_x, cov_xx, cov_xy and l by mean_y, cov_yy, cov_xy, y: the
+    # sizes most of them agree on are taken, so that the odd one out is blamed.
+    sizes = {"mean_x": as_vector("mean_x", mean_x).shape[0],
+             "mean_y": as_vector("mean_y", mean_y).shape[0],
+             "cov_xx": as_square("cov_xx", cov_xx).shape[0],
+             "cov_yy": as_square("cov_yy", cov_yy).shape[0],
+             "cov_xy": as_matrix("cov_xy", cov_xy, (None, None)).shape,
+             "y": as_vector("y", y).shape[0]}
+    k = _agreed_size([sizes["cov_xx"], sizes["mean_x"], sizes["cov_xy"][0]])
+    l_ = _agreed_size([sizes["cov_yy"], sizes["mean_y"], sizes["y"], sizes["cov_xy"][1]])
+    mean_x = as_vector("mean_x", mean_x, k)
+    mean_y = as_vector("mean_y", mean_y, l_)
     cov_xx = as_covariance("cov_xx", cov_xx, k)
-    cov_xy = as_matrix("cov_xy", cov_xy, (k, l_))
     cov_yy = as_covariance("cov_yy", cov_yy, l_)
+    cov_xy = as_matrix("cov_xy", cov_xy, (k, l_))
     y = as_vector("y", y, l_)
     factor = (_cholesky("cov_yy", cov_yy), True)
     joint = np.block([[cov_xx, cov_xy], [cov_xy.T, cov_yy]])
@@ -205,17 +254,29 @@ def logpdf(x, mean, cov):
 
 
 def _logpdf_rows(d: np.ndarray, L: np.ndarray) -> np.ndarray:
-    """log N(d_i; 0, L L^T) for each row d_i of ``d`` (N, n), with L lower triangular.
+    """log N(d_i; 0, P_i) for each row d_i of ``d`` (N, n), given Cholesky factors P_i = L_i L_i^T.
 
+    ``L`` is one factor (n, n) for all rows, of which only the lower triangle
+    is read, or one factor per row (N, n, n) with zero upper triangles; either
+    from a successful Cholesky factorisation (positive diagonal).
     The one place the Gaussian log-density is computed: the filters' step
     log-likelihoods and the models' measurement densities call it too.
     """
-    # z = L^{-1} d, so z^T z = d^T P^{-1} d (a triangular solve, no inverse)
-    z = sla.solve_triangular(L, d.T, lower=True, check_finite=False)
-    maha = np.sum(z * z, axis=0)
+    # z_i = L_i^{-1} d_i, so that z_i^T z_i = d_i^T P_i^{-1} d_i
+    if L.ndim == 3:
+        z = np.linalg.solve(L, d[..., None])[..., 0]
+    elif d.shape[0] == 1:
+        # one row: a LAPACK triangular solve, dtrtrs
+        z = _dtrtrs(L, d.T, lower=1)[0].T
+    else:
+        # many rows: L^{-1} from LAPACK dtrtri, then one product for all of them
+        # (dtrtrs with many right-hand sides wakes OpenBLAS's threads, which cost
+        # far more than they save on such small systems)
+        z = d @ np.tril(_dtrtri(L, lower=1)[0]).T
+    maha = (z * z).sum(axis=-1)
     # log det P = 2 sum_i log L_ii
-    log_det = 2.0 * np.sum(np.log(np.diag(L)))
-    return -0.5 * (maha + log_det + L.shape[0] * LOG_2PI)
+    log_det = 2.0 * np.log(L.diagonal(0, -2, -1)).sum(axis=-1)
+    return -0.5 * (maha + log_det + L.shape[-1] * LOG_2PI)
 
 
 def sample(rng: np.random.Generator, mean, cov, size: int) -> np.ndarray:
@@ -275,10 +336,13 @@ def squared_mahalanobis(diffs, covs) -> np.ndarray:
     ------
     ValueError
         If the trailing shapes do not match, leading axes do not broadcast,
-        an entry is not finite or a covariance is not positive definite.
+        an entry is not finite or a covariance is not positive definite. A
+        NaN gets a message saying to select the observed rows of a filter
+        result: ``res.innovations[res.observed]``,
+        ``res.innovation_covs[res.observed]`` (the missing rows are NaN).
     """
-    d = as_array("diffs", diffs)
-    P = as_array("covs", covs)
+    d = _finite_or_missing("squared_mahalanobis", "diffs", diffs)
+    P = _finite_or_missing("squared_mahalanobis", "covs", covs)
     if d.ndim < 1:
         raise ValueError(f"diffs must have shape (..., n), got scalar {d!r}")
     n = d.shape[-1]
@@ -343,3 +407,115 @@ def chi2_interval(dof: int, n_runs: int = 1, confidence: float = 0.95) -> Interv
     low = stats.chi2.ppf(0.5 * alpha, total) / n_runs
     high = stats.chi2.ppf(1.0 - 0.5 * alpha, total) / n_runs
     return Interval(float(low), float(high))
+
+
+def normalised_innovations(innovations, innovation_covs) -> np.ndarray:
+    r"""Whitened innovations :math:`z_t = L_t^{-1} r_t`, with :math:`S_t = L_t L_t^T` (Cholesky).
+
+    For a consistent filter the innovations :math:`r_t` are independent
+    over time with covariances :math:`S_t`, so the :math:`z_t` are
+    independent :math:`N(0, I)`: white noise, each component with unit
+    variance. :func:`autocorrelation` of the result is the innovation
+    whiteness test (chapter 03). :math:`\lVert z_t \rVert^2` is the NIS of
+    step t (see :func:`squared_mahalanobis`).
+
+    Parameters
+    ----------
+    innovations : array_like, shape (T, m)
+        :math:`r_t`, e.g. ``res.innovations`` of a filter result.
+    innovation_covs : array_like, shape (T, m, m)
+        :math:`S_t`, symmetric positive definite, e.g. ``res.innovation_covs``.
+
+    Returns
+    -------
+    ndarray, shape (T, m)
+
+    Raises
+    ------
+    ValueError
+        On a shape mismatch, a non-finite entry, or an :math:`S_t` that is
+        not positive definite. A NaN (the missing rows of a filter result)
+        gets a message saying to select the observed rows:
+        ``normalised_innovations(res.innovations[res.observed],
+        res.innovation_covs[res.observed])``.
+    """
+    r = _finite_or_missing("normalised_innovations", "innovations", innovations)
+    S = _finite_or_missing("normalised_innovations", "innovation_covs", innovation_covs)
+    if r.ndim != 2:
+        raise ValueError(f"innovations must have shape (T, m), got shape {r.shape}")
+    T, m = r.shape
+    if S.shape != (T, m, m):
+        raise ValueError(f"innovation_covs must have shape ({T}, {m}, {m}) to match innovations "
+                         f"({T}, {m}), got shape {S.shape}")
+    asym = np.max(np.abs(S - np.swapaxes(S, 1, 2)), axis=(1, 2))
+    scale = np.maximum(np.max(np.abs(S), axis=(1, 2)), 1e-300)
+    if np.any(asym > 1e-9 * scale):
+        t = int(np.argmax(asym / scale))
+        raise ValueError(f"innovation_covs must be symmetric, got max |S - S^T| / max |S| = "
+                         f"{asym[t] / scale[t]:.3g} at step {t}")
+    try:
+        L = np.linalg.cholesky(S)
+    except np.linalg.LinAlgError:
+        raise ValueError("innovation_covs must be positive definite (every matrix), "
+                         "Cholesky factorisation failed") from None
+    # z_t = L_t^{-1} r_t (a solve, no inverse)
+    return np.linalg.solve(L, r[..., None])[..., 0]
+
+
+def autocorrelation(x, max_lag: int) -> np.ndarray:
+    r"""Sample autocorrelation :math:`\hat\gamma(1), \dots, \hat\gamma(K)` of one or more sequences.
+
+    The standard (biased) estimator, with :math:`\bar x` the sample mean:
+
+    .. math::
+
+        \hat\gamma(k) = \frac{\sum_{t=0}^{N-1-k} (x_t - \bar x)(x_{t+k} - \bar x)}
+                           {\sum_{t=0}^{N-1} (x_t - \bar x)^2}.
+
+    Dividing by the full sum (not by the N - k terms of the numerator) keeps
+    :math:`|\hat\gamma(k)| \le 1`.
+
+    Innovation whiteness test (the third consistency test, with NEES and
+    NIS): for a consistent filter the normalised innovations
+    (:func:`normalised_innovations`) are white, and for white noise each
+    :math:`\hat\gamma(k)`, k >= 1, is approximately :math:`N(0, 1/N)` for
+    large N. So about 95 % of the lags should lie inside the band
+    :math:`\pm 1.96 / \sqrt N`; many lags outside it, or a pattern, mean
+    that the innovations are correlated over time (a wrong model, or wrong
+    noise covariances).
+
+    Parameters
+    ----------
+    x : array_like, shape (N,) or (N, m)
+        A sequence, or m sequences as columns (each is treated separately).
+    max_lag : int
+        Largest lag K, 1 <= K <= N - 1.
+
+    Returns
+    -------
+    ndarray, shape (max_lag,) or (max_lag, m)
+        Row k - 1 holds :math:`\hat\gamma(k)`.
+
+    Raises
+    ------
+    ValueError
+        On a non-finite entry (a NaN gets the message of
+        :func:`normalised_innovations`), fewer than 2 samples, ``max_lag``
+        outside [1, N - 1], or a constant sequence (no autocorrelation).
+    """
+    a = _finite_or_missing("normalised_innovations", "x", x)
+    if a.ndim not in (1, 2):
+        raise ValueError(f"x must have shape (N,) or (N, m), got shape {a.shape}")
+    N = a.shape[0]
+    if N < 2 or a.size == 0:
+        raise ValueError(f"x needs at least 2 samples (and a column), got shape {a.shape}")
+    max_lag = as_int("max_lag", max_lag, minimum=1)
+    if max_lag > N - 1:
+        raise ValueError(f"max_lag must be <= N - 1 = {N - 1}, got {max_lag}")
+    d = a - a.mean(axis=0)
+    # sum_t (x_t - xbar)^2
+    denom = np.sum(d * d, axis=0)
+    if np.any(denom == 0):
+        raise ValueError("x is constant (in some column): its autocorrelation is undefined")
+    # gamma(k) = sum_{t < N-k} (x_t - xbar)(x_{t+k} - xbar) / sum_t (x_t - xbar)^2
+    return np.stack([np.sum(d[:-k] * d[k:], axis=0) for k in range(1, max_lag + 1)]) / denom

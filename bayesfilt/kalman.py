@@ -46,9 +46,19 @@ Import it as ``bf.kalman``::
 A row of ``ys`` that is entirely NaN is a missing measurement: the filter
 only predicts through it.
 
-Numerics. The covariance update uses the Joseph form (see :func:`update`),
-S is factorised by Cholesky and the gain is obtained by solving linear
-systems, never by inverting S; every covariance is symmetrised exactly.
+The whole-run filter is the two steps in a plain loop, over the same
+kernels that :func:`predict` and :func:`update` use: ``kalman_filter``
+gives bit for bit the numbers of the single steps called in a loop.
+
+Numerics. S is factorised by Cholesky and the gain is obtained by solving
+:math:`S K^T = C P` with the factor (one LAPACK ``dposv`` call), never by
+inverting S. The covariance update uses the Joseph form, which is exactly
+symmetric (every covariance is symmetrised after it is computed) and, in
+exact arithmetic, positive semi-definite for any gain. In floating point it
+avoids the cancellation of the textbook :math:`P - KCP`, so it stays
+positive semi-definite to rounding where that form goes indefinite, but it
+is not a proof of positive semi-definiteness under rounding (see
+:func:`update`).
 
 Time convention (seed 000): ``ys[0]`` measures :math:`x_0 \sim N(m_0, P_0)`,
 so ``pred_means[0] = m0``, ``pred_covs[0] = P0`` and ``means[t]`` is
@@ -72,7 +82,7 @@ from scipy.linalg.lapack import dposv as _dposv
 
 from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_square, as_vector,
                       require_finite)
-from .gaussian import LOG_2PI, _logpdf_rows
+from .gaussian import _logpdf_rows
 from .models import LinearGaussian
 
 __all__ = [
@@ -147,75 +157,81 @@ class SteadyState(NamedTuple):
 
 
 # --------------------------------------------------------------------------
-# Unchecked kernels: the filters validate once, then call these every step.
+# The two step kernels, unchecked: predict and update validate their arguments
+# and call them; the filters validate once and call them every step.
 # --------------------------------------------------------------------------
-
-def _predict(x, P, A, GQGt, Bu=None):
-    # x_{t+1|t} = A x_{t|t} + B u_t
-    x = A @ x
-    if Bu is not None:
-        x = x + Bu
-    # P_{t+1|t} = A P_{t|t} A^T + G Q G^T
-    P = A @ P @ A.T + GQGt
-    return x, 0.5 * (P + P.T)
-
 
 _EPS = np.finfo(float).eps
 S_NOT_PD = ("innovation covariance S = C P C^T + R (H P H^T + R in the EKF) is singular or not "
             "positive definite: R needs a positive variance on every measurement component, "
             "or C P C^T must make up for it")
+S_OVERFLOW = ("innovation covariance S = C P C^T + R overflowed to a non-finite value; "
+              "the model or the data are too large for floating point")
 
 
-def _swap(a):
-    return np.swapaxes(a, -1, -2)
+def _predict(x, P, A, GQGt, Bu=None):
+    """Prediction for a mean x (n,) or M means (M, n), and P (n, n) or a stack (D, n, n)."""
+    # x_{t+1|t} = A x_{t|t} + B u_t   (written for row vectors, so that it also moves M means)
+    x = x @ A.T
+    if Bu is not None:
+        x = x + Bu
+    # P_{t+1|t} = A P_{t|t} A^T + G Q G^T
+    P = A @ P @ A.T + GQGt
+    # rounding leaves the sum slightly asymmetric; make it exactly symmetric
+    # (.mT transposes a matrix, or each matrix of a stack)
+    return x, 0.5 * (P + P.mT)
 
 
 def _gain_and_joseph(P, C, R, eye_n):
     """Gain and Joseph-form covariance of a measurement update, for P (n, n) or a stack (D, n, n).
 
-    The one place the update's covariance algebra is written; the single step,
-    the covariance passes of the filters and the EKF (with C = H) all call it.
+    The one place the update's covariance algebra is written: the single step,
+    both filters and the EKF (with C = H) call it.
     Returns K (..., n, m), S (..., m, m), L (..., m, m) whose lower triangle is the
-    Cholesky factor of S (the upper triangle is not cleared), and P_post.
-    Raises ValueError(S_NOT_PD) if S is not safely positive definite.
+    Cholesky factor of S (for one P the upper triangle holds S's, not zeros), and P_post.
+    Raises ValueError if S overflowed or is not safely positive definite.
     """
     PCt = P @ C.T
     # S = C P C^T + R
     S = C @ PCt + R
     if not np.isfinite(S).all():
-        raise ValueError("innovation covariance S = C P C^T + R overflowed to a non-finite value; "
-                         "the model or the data are too large for floating point")
-    # S is numerically singular when a pivot of its factor L is below the rounding
-    # level of its largest entry.
+        raise ValueError(S_OVERFLOW)
     if P.ndim == 2:
-        # One small S: LAPACK dposv factors S = L L^T and solves S K^T = C P in one call
-        # (it leaves S's upper triangle above L: solve with L as lower triangular only).
+        # S = L L^T and S K^T = C P (so K = P C^T S^{-1}) in one LAPACK call, dposv:
+        # a solve with the Cholesky factor, never an inverse of S
         L, Kt, info = _dposv(S, PCt.T, lower=1)
-        singular = info != 0 or min(L.diagonal()) ** 2 <= S.shape[0] * _EPS * max(S.diagonal())
+        if info != 0:
+            raise ValueError(S_NOT_PD)
     else:
         try:
             L = np.linalg.cholesky(S)
         except np.linalg.LinAlgError:
             raise ValueError(S_NOT_PD) from None
-        singular = (np.diagonal(L, axis1=-2, axis2=-1).min(axis=-1) ** 2
-                    <= S.shape[-1] * _EPS * np.diagonal(S, axis1=-2, axis2=-1).max(axis=-1)).any()
-        # K = P C^T S^{-1}: solve S K^T = C P (no inverse)
-        Kt = np.linalg.solve(S, _swap(PCt))
-    if singular:
+        # K = P C^T S^{-1}: solve S K^T = C P
+        Kt = np.linalg.solve(S, PCt.mT)
+    # The pivot L_ii^2 is the variance of measurement component i given the components
+    # before it. S is numerically singular when that is at the rounding level of S_ii
+    # itself. Each pivot is compared with its own diagonal entry, not with the largest
+    # one, so that components measured in very different units are not rejected.
+    if (L.diagonal(0, -2, -1) ** 2 <= S.shape[-1] * _EPS * S.diagonal(0, -2, -1)).any():
         raise ValueError(S_NOT_PD)
-    K = _swap(Kt)
+    K = Kt.mT
     IKC = eye_n - K @ C
-    # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form)
-    P_post = IKC @ P @ _swap(IKC) + K @ R @ Kt
-    return K, S, L, 0.5 * (P_post + _swap(P_post))
+    # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form, see update)
+    P_post = IKC @ P @ IKC.mT + K @ R @ Kt
+    return K, S, L, 0.5 * (P_post + P_post.mT)
 
 
 def _correct(x, P, r, C, R, eye_n):
-    """Measurement update given the innovation r (shared with the EKF, where C is the Jacobian H)."""
+    """Measurement update of one mean x (n,) given its innovation r (m,).
+
+    Shared with the EKF, where C is the Jacobian H and r may come from a residual
+    function. Returns x_post, P_post, K, r, S and loglik = log N(r; 0, S) (a float).
+    """
     K, S, L, P_post = _gain_and_joseph(P, C, R, eye_n)
     # x_{t|t} = x_{t|t-1} + K r
     x_post = x + K @ r
-    # log N(r; 0, S)
+    # log N(r; 0, S), with the Cholesky factor of S
     loglik = float(_logpdf_rows(r[None, :], L)[0])
     return x_post, P_post, K, r, S, loglik
 
@@ -287,18 +303,34 @@ def update(x, P, y, C, R) -> Update:
         P^+ = (I - K C) P (I - K C)^T + K R K^T.
 
     Why not the seed's :math:`P^+ = P - K C P`? In exact arithmetic the two
-    agree (for the optimal K). But :math:`P - KCP` is a *difference* of two
-    positive semi-definite matrices: when the measurement is precise the two
-    nearly cancel, and rounding can leave a result that is asymmetric or has
-    a negative eigenvalue, after which the filter can diverge. The Joseph
-    form is a *sum* of two PSD terms, so it cannot lose definiteness through
-    cancellation, and it is the correct covariance for *any* gain K, not only
-    the optimal one (so a small error in K costs only a second-order error
-    in P). filterpy uses it too. The result is also symmetrised exactly.
+    agree for the optimal gain K. What the Joseph form does guarantee:
 
-    S is factorised by Cholesky (which also checks it is positive definite)
-    and the gain is obtained by solving :math:`S K^T = C P`, never by
-    inverting S.
+    * *Symmetry*, exactly: the result is symmetrised after it is computed
+      (:math:`(P^+ + P^{+T})/2`).
+    * *Positive semi-definiteness in exact arithmetic, for any gain K*: it
+      is a sum of two PSD terms, :math:`(I-KC)P(I-KC)^T` and :math:`KRK^T`.
+      It is also the correct covariance of the updated estimate for any K,
+      not only the optimal one, so a small error in K costs only a
+      second-order error in P.
+    * *In floating point*, it avoids the cancellation of :math:`P - KCP`, a
+      *difference* of two PSD matrices that nearly cancel when the
+      measurement is precise. So it stays positive semi-definite to rounding
+      in cases where the simple form goes indefinite or loses a small
+      variance altogether (with :math:`P = 10^{12} I` and :math:`R = 10^{-6}`,
+      :math:`P - KCP` gives the measured component variance 0; the Joseph
+      form keeps its :math:`10^{-6}`). It is not a proof of positive
+      semi-definiteness under rounding: its products are rounded too, and a
+      nearly singular P can still come out with an eigenvalue slightly
+      below zero. (A square-root filter, which carries a factor of P, is the
+      remedy when that matters.)
+
+    filterpy uses the Joseph form too.
+
+    S is factorised by Cholesky and the gain is obtained by solving
+    :math:`S K^T = C P`, never by inverting S. S is rejected as singular
+    when a pivot of its factor is at the rounding level of its own diagonal
+    entry, :math:`L_{ii}^2 \le m\,\epsilon\,S_{ii}`, a test that does
+    not depend on the units of the measurement components.
 
     Parameters
     ----------
@@ -372,7 +404,7 @@ def _check_observations(ys: np.ndarray, axis_names: str) -> np.ndarray:
 
 
 def _check_inputs(model: LinearGaussian, us, T: int, batch: int | None):
-    """Return B u_t for t = 0..T-2 as (T-1, n) or (M, T-1, n), or None."""
+    """The validated inputs u_0..u_{T-2}, (T-1, p) or (M, T-1, p), or None."""
     if us is None:
         return None
     if model.B is None:
@@ -389,8 +421,7 @@ def _check_inputs(model: LinearGaussian, us, T: int, batch: int | None):
     rows = a.shape[-2]
     if rows not in (T - 1, T):
         raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {rows}")
-    a = a[..., : T - 1, :]
-    return a @ model.B.T
+    return a[..., : T - 1, :]
 
 
 def _as_ys(ys, m: int, batched: bool) -> np.ndarray:
@@ -412,177 +443,17 @@ def _as_ys(ys, m: int, batched: bool) -> np.ndarray:
     return a
 
 
-class _Covariances(NamedTuple):
-    """The data-independent half of a filter run, per time step.
-
-    Shapes for one missing-data pattern (a leading axis D for D patterns):
-    ``covs`` and ``pred_covs`` (T, n, n); ``S`` (T, m, m), NaN where missing;
-    ``gains`` (T, n, m), 0 where missing; ``chol_inv`` (T, m, m) = L^{-1}
-    with S = L L^T, 0 where missing; ``log_dets`` (T,) = log det S, 0 where
-    missing.
-    """
-
-    covs: np.ndarray
-    pred_covs: np.ndarray
-    S: np.ndarray
-    gains: np.ndarray
-    chol_inv: np.ndarray
-    log_dets: np.ndarray
-
-
-def _finish(covs, pred_covs, S, gains, chols, observed) -> _Covariances:
-    """Add L^{-1} and log det S for the observed steps (any leading axes)."""
-    m = S.shape[-1]
-    chol_inv = np.zeros(S.shape)
-    log_dets = np.zeros(S.shape[:-2])
-    if observed.any():
-        Ls = np.tril(chols[observed])  # only the lower triangles are the factors
-        # L^{-1} from the triangular systems L X = I, once per step, so that
-        # r^T S^{-1} r = |L^{-1} r|^2 vectorises over steps and sequences.
-        chol_inv[observed] = np.linalg.solve(Ls, np.broadcast_to(np.eye(m), Ls.shape))
-        # log det S = 2 sum_i log L_ii
-        log_dets[observed] = 2.0 * np.log(np.diagonal(Ls, axis1=-2, axis2=-1)).sum(axis=-1)
-    return _Covariances(covs, pred_covs, S, gains, chol_inv, log_dets)
-
-
-def _covariance_pass(A, C, R, GQGt, P0, observed) -> _Covariances:
-    """Covariance recursion (predict, Joseph update) for one missing-data pattern (T,).
-
-    For a time-invariant model the recursion reaches a floating-point fixed
-    point after a few dozen to a few hundred steps (the Riccati map is a
-    contraction): the predicted covariance comes out bit-for-bit equal to the
-    previous one. From then on every step would recompute exactly the same
-    numbers, so they are reused instead. This is exact, not an
-    approximation: a step is reused only when its input is bitwise identical
-    to the input of the step it copies.
-    """
-    n, m, T = A.shape[0], C.shape[0], observed.shape[0]
-    eye_n = np.eye(n)
-    At = A.T
-    mats = [P0]                 # every distinct covariance, indexed by the steps
-    gains, Ss, chols = [], [], []
-    pred_idx = [0] * T
-    post_idx = [0] * T
-    upd_idx = [0] * T
-    P, i = P0, 0
-    last_pred = None  # (P_{t-1|t-1} it was computed from, index of the P_{t|t-1} it gave)
-    last_upd = None   # (P_{t|t-1} it was computed from, update index, index of P_{t|t})
-    for t, obs in enumerate(observed.tolist()):
-        if t > 0:
-            if last_pred is not None and P is last_pred[0]:
-                i = last_pred[1]
-                P = mats[i]
-            else:
-                P_post = P
-                # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
-                # (symmetrised with all the others after the loop)
-                P = A @ P @ At + GQGt
-                mats.append(P)
-                i = len(mats) - 1
-                last_pred = (P_post, i)
-        pred_idx[t] = i
-        if obs:
-            if last_upd is not None and (P is last_upd[0] or (
-                    P[0, 0] == last_upd[0][0, 0] and (P == last_upd[0]).all())):
-                u, i = last_upd[1], last_upd[2]
-                last_upd = (P, u, i)
-                P = mats[i]
-            else:
-                P_pred = P
-                try:
-                    K, S, L, P = _gain_and_joseph(P, C, R, eye_n)
-                except ValueError as exc:
-                    raise ValueError(f"{exc} (at time step {t})") from None
-                gains.append(K)
-                Ss.append(S)
-                chols.append(L)
-                mats.append(P)
-                u, i = len(gains) - 1, len(mats) - 1
-                last_upd = (P_pred, u, i)
-            upd_idx[t] = u
-        post_idx[t] = i
-    mats = np.stack(mats)
-    # every covariance returned is exactly symmetric
-    mats = 0.5 * (mats + _swap(mats))
-    S_t = np.full((T, m, m), np.nan)
-    gains_t = np.zeros((T, n, m))
-    chols_t = np.zeros((T, m, m))
-    if gains:
-        u = np.asarray(upd_idx)[observed]
-        S_t[observed] = np.stack(Ss)[u]
-        gains_t[observed] = np.stack(gains)[u]
-        chols_t[observed] = np.stack(chols)[u]
-    return _finish(mats[post_idx], mats[pred_idx], S_t, gains_t, chols_t, observed)
-
-
-def _covariance_pass_many(A, C, R, GQGt, P0, patterns) -> _Covariances:
-    """The covariance recursion for D missing-data patterns (D, T) at once, vectorised over D."""
-    n, m = A.shape[0], C.shape[0]
-    D, T = patterns.shape
-    eye_n = np.eye(n)
-    covs = np.empty((D, T, n, n))
-    pred_covs = np.empty((D, T, n, n))
-    S_all = np.full((D, T, m, m), np.nan)
-    gains = np.zeros((D, T, n, m))
-    chols = np.zeros((D, T, m, m))
-    P = np.broadcast_to(P0, (D, n, n))
-    for t in range(T):
-        if t > 0:
-            # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
-            P = A @ P @ A.T + GQGt
-            P = 0.5 * (P + _swap(P))
-        pred_covs[:, t] = P
-        obs = patterns[:, t]
-        if obs.any():
-            idx = slice(None) if obs.all() else np.flatnonzero(obs)
-            try:
-                K, S, L, Pn = _gain_and_joseph(P[idx], C, R, eye_n)
-            except ValueError as exc:
-                raise ValueError(f"{exc} (at time step {t})") from None
-            if isinstance(idx, slice):
-                P = Pn
-            else:
-                P = np.array(P)
-                P[idx] = Pn
-            S_all[idx, t] = S
-            gains[idx, t] = K
-            chols[idx, t] = L
-        covs[:, t] = P
-    return _finish(covs, pred_covs, S_all, gains, chols, patterns)
-
-
-def _step_logliks(chol_inv, log_dets, observed, innovations) -> np.ndarray:
-    """log N(r_t; 0, S_t) where observed, 0 elsewhere (time-major arrays).
-
-    ``innovations`` (T, m) with ``chol_inv`` (T, m, m); or (T, M, m) with
-    ``chol_inv`` (T, m, m) shared by the M sequences or (T, M, m, m).
-    ``log_dets`` and ``observed`` have the shape of ``innovations`` without m.
-    NaN innovations of missing rows give NaN here and are replaced by 0.
-    """
-    m = innovations.shape[-1]
-    # z = L^{-1} r, so that r^T S^{-1} r = z^T z
-    if chol_inv.ndim == innovations.ndim + 1:
-        z = (chol_inv @ innovations[..., None])[..., 0]
-    else:
-        z = innovations @ _swap(chol_inv)
-    maha = np.sum(z * z, axis=-1)
-    # log N(r; 0, S) = -(r^T S^{-1} r + log det S + m log 2 pi) / 2
-    return np.where(observed, -0.5 * (maha + log_dets + m * LOG_2PI), 0.0)
-
-
 def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     r"""Run the Kalman filter of seed 000 over a whole sequence of measurements.
 
     For t = 0, ..., T-1: predict from t-1 to t (skipped at t = 0, where the
     prediction is the prior :math:`N(m_0, P_0)`), then update with
-    ``ys[t]`` (as :func:`predict` and :func:`update` do) unless that row is
-    missing (all NaN), in which case the filtered belief is the prediction.
+    ``ys[t]`` unless that row is missing (all NaN), in which case the
+    filtered belief is the prediction.
 
-    The arguments are validated once; the loop then runs unchecked code.
-    The covariances do not depend on the measured values, so they are
-    computed first, reusing steps once the recursion has reached its
-    floating-point fixed point (exactly, see the source), and only the means
-    are then run through the measurements.
+    The loop calls the same two kernels as :func:`predict` and
+    :func:`update`, so its numbers are bit for bit those of the single steps
+    called in a loop; only the argument checks are done once, before the loop.
 
     Parameters
     ----------
@@ -615,44 +486,39 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     ys = _as_ys(ys, m, batched=False)
     T = ys.shape[0]
     observed = _check_observations(ys, "time step")
-    Bus = _check_inputs(model, us, T, None)
-    A, C = model.A, model.C
+    us = _check_inputs(model, us, T, None)
+    A, B, C, R = model.A, model.B, model.C, model.R
     GQGt = model.G @ model.Q @ model.G.T
+    eye_n = np.eye(n)
+
+    means, covs = np.empty((T, n)), np.empty((T, n, n))
+    pred_means, pred_covs = np.empty((T, n)), np.empty((T, n, n))
+    # a missing row keeps these: NaN innovation, zero gain, zero log-likelihood
+    innovations, innovation_covs = np.full((T, m), np.nan), np.full((T, m, m), np.nan)
+    gains, step_logliks = np.zeros((T, n, m)), np.zeros(T)
+    # x_{0|-1} = m0, P_{0|-1} = P0: ys[0] measures x_0 (seed 000's time convention)
+    x, P = model.m0, model.P0
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below
-        try:
-            cov = _covariance_pass(A, C, model.R, GQGt, model.P0, observed)
-        except ValueError as exc:
-            raise ValueError(f"kalman_filter: {exc}") from None
-
-    gains = cov.gains
-    means = np.empty((T, n))
-    pred_means = np.empty((T, n))
-    obs_list = observed.tolist()
-    x = model.m0
-    for t in range(T):
-        if t > 0:
-            # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}
-            x = A @ x
-            if Bus is not None:
-                x = x + Bus[t - 1]
-        pred_means[t] = x
-        if obs_list[t]:
-            # x_{t|t} = x_{t|t-1} + K_t (y_t - C x_{t|t-1})
-            x = x + gains[t] @ (ys[t] - C @ x)
-        means[t] = x
-    # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
-    innovations = ys - pred_means @ C.T
-    step_logliks = _step_logliks(cov.chol_inv, cov.log_dets, observed, innovations)
-    # NaN is legitimate only in the innovations of missing rows; anything else overflowed.
-    for what, a in (("means", means), ("covs", cov.pred_covs), ("step_logliks", step_logliks)):
+        for t in range(T):
+            if t > 0:
+                # prediction, as predict(): x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1},
+                # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T
+                x, P = _predict(x, P, A, GQGt, None if us is None else B @ us[t - 1])
+            pred_means[t], pred_covs[t] = x, P
+            if observed[t]:
+                # measurement update, as update(): r_t = y_t - C x_{t|t-1}, S_t, K_t,
+                # x_{t|t} = x_{t|t-1} + K_t r_t and the Joseph-form P_{t|t}
+                try:
+                    x, P, K, r, S, loglik = _correct(x, P, ys[t] - C @ x, C, R, eye_n)
+                except ValueError as exc:
+                    raise ValueError(f"kalman_filter: {exc} (at time step {t})") from None
+                gains[t], innovations[t], innovation_covs[t], step_logliks[t] = K, r, S, loglik
+            means[t], covs[t] = x, P
+    for what, a in (("means", means), ("covs", covs), ("pred_covs", pred_covs),
+                    ("step_logliks", step_logliks)):
         require_finite("kalman_filter", what, a)
-    return FilterResult(means, cov.covs, pred_means, cov.pred_covs, innovations, cov.S,
+    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
                         gains, step_logliks, float(step_logliks.sum()), observed)
-
-
-#: Up to this many distinct missing-data patterns, the covariance recursion runs
-#: once per pattern (reusing converged steps); beyond it, once vectorised over them.
-_FEW_PATTERNS = 4
 
 
 def _missing_patterns(observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -666,13 +532,14 @@ def _missing_patterns(observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     r"""Kalman filter on M measurement sequences of the same model at once.
 
-    The covariances, gains and innovation covariances of a Kalman filter do
-    not depend on the measured *values*, only on which rows are missing. So
-    they are computed once for every distinct missing-data pattern, and only
-    the means are propagated for all M sequences together, each step one
-    (M, n) x (n, n) matrix product. This is what makes many Monte Carlo
-    runs cheap (NEES/NIS consistency checks, chapter 03). The result equals
-    M calls of :func:`kalman_filter` to rounding.
+    The same loop as :func:`kalman_filter`, with every step applied to all M
+    sequences together: the M means move with one (M, n) x (n, n) product.
+    The covariances, gains and innovation covariances do not depend on the
+    measured *values*, only on which rows are missing, so they are computed
+    once for each distinct missing-data pattern (usually one for all M).
+    This is what makes many Monte Carlo runs cheap (NEES/NIS consistency
+    checks, chapter 03). The result equals M calls of :func:`kalman_filter`
+    to rounding.
 
     Parameters
     ----------
@@ -698,89 +565,96 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     ys = _as_ys(ys, model.obs_dim, batched=True)
     M, T = ys.shape[:2]
     observed = _check_observations(ys, "sequence, time step")
-    Bus = _check_inputs(model, us, T, M)
+    us = _check_inputs(model, us, T, M)
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         try:
-            result = _batch_run(model, ys, observed, Bus)
+            result = _batch_run(model, ys, observed, us)
         except ValueError as exc:
             raise ValueError(f"batch_kalman_filter: {exc}") from None
-    for what in ("means", "pred_covs", "step_logliks"):
+    for what in ("means", "covs", "pred_covs", "step_logliks"):
         require_finite("batch_kalman_filter", what, getattr(result, what))
     return result
 
 
-def _batch_run(model: LinearGaussian, ys, observed, Bus) -> FilterResult:
-    """:func:`batch_kalman_filter` after validation."""
-    n = model.state_dim
+def _batch_run(model: LinearGaussian, ys, observed, us) -> FilterResult:
+    """:func:`batch_kalman_filter` after validation.
+
+    Means, innovations and log-likelihoods have an axis of the M sequences;
+    covariances, gains and S an axis of the D distinct missing-data patterns.
+    Inside, arrays are time-major, (T, M, ...) and (T, D, ...), so that every
+    step writes contiguous memory.
+    """
+    n, m = model.state_dim, model.obs_dim
     M, T = ys.shape[:2]
-    A, C = model.A, model.C
-    At = A.T
+    A, C, R = model.A, model.C, model.R
     GQGt = model.G @ model.Q @ model.G.T
+    eye_n = np.eye(n)
     patterns, which = _missing_patterns(observed)
     D = patterns.shape[0]
-    if D <= _FEW_PATTERNS:
-        parts = [_covariance_pass(A, C, model.R, GQGt, model.P0, p) for p in patterns]
-        cov = _Covariances(*(np.stack(field) for field in zip(*parts)))
-    else:
-        cov = _covariance_pass_many(A, C, model.R, GQGt, model.P0, patterns)
+    ys = ys.transpose(1, 0, 2)
+    # B u_{t-1}: (T - 1, n) shared by all sequences, or (T - 1, M, n)
+    Bus = None if us is None else (us @ model.B.T if us.ndim == 2
+                                   else (us @ model.B.T).transpose(1, 0, 2))
 
-    # The means. Written as one linear recursion per step,
-    #   x_{t|t} = (I - K_t C) (A x_{t-1|t-1} + B u_{t-1}) + K_t y_t,
-    # which is seed 000's x_{t|t-1} + K_t (y_t - C x_{t|t-1}) with the prediction
-    # substituted; everything that does not depend on x is computed for all
-    # steps and sequences at once, so the loop over t is one small product.
-    # A missing row has K_t = 0 (its NaN measurement is replaced by 0 first).
-    # Arrays are time-major (T, M, n) inside, so each step touches contiguous memory.
-    y0 = ys if observed.all() else np.where(observed[..., None], ys, 0.0)
-    y_tm = y0.transpose(1, 0, 2)
-    eye_n = np.eye(n)
+    means, pred_means = np.empty((T, M, n)), np.empty((T, M, n))
+    innovations, step_logliks = np.full((T, M, m), np.nan), np.zeros((T, M))
+    covs, pred_covs = np.empty((T, D, n, n)), np.empty((T, D, n, n))
+    innovation_covs, gains = np.full((T, D, m, m), np.nan), np.zeros((T, D, n, m))
+    x = np.broadcast_to(model.m0, (M, n))
+    P = np.broadcast_to(model.P0, (D, n, n))
+    for t in range(T):
+        if t > 0:
+            # prediction: x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1} for the M means (rows of x),
+            # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T for the D covariances
+            x, P = _predict(x, P, A, GQGt, None if Bus is None else Bus[t - 1])
+        pred_means[t], pred_covs[t] = x, P
+        obs = patterns[:, t]  # which of the D patterns measure y_t
+        if obs.any():
+            # S_t, K_t and the Joseph-form P_{t|t} of those patterns
+            try:
+                K, S, L, P_obs = _gain_and_joseph(P[obs], C, R, eye_n)
+            except ValueError as exc:
+                raise ValueError(f"{exc} (at time step {t})") from None
+            if obs.all():
+                P = P_obs
+            else:
+                P = np.array(P)
+                P[obs] = P_obs
+            gains[t, obs], innovation_covs[t, obs] = K, S
+            # r_t = y_t - C x_{t|t-1}   (NaN for the sequences whose y_t is missing)
+            r = ys[t] - x @ C.T
+            innovations[t] = r
+            if D == 1:  # all M sequences share K_t and S_t
+                # x_{t|t} = x_{t|t-1} + K_t r_t
+                x = x + r @ K[0].T
+                # log N(r_t; 0, S_t)
+                step_logliks[t] = _logpdf_rows(r, L[0])
+            else:  # each sequence that measures y_t uses its own pattern's K_t and S_t
+                seq = observed[:, t]
+                # the index of each such sequence's pattern among the patterns that measure y_t
+                slot = (np.cumsum(obs) - 1)[which[seq]]
+                x = np.array(x)
+                # x_{t|t} = x_{t|t-1} + K_t r_t
+                x[seq] += (K[slot] @ r[seq, :, None])[..., 0]
+                # log N(r_t; 0, S_t)
+                step_logliks[t, seq] = _logpdf_rows(r[seq], L[slot])
+        means[t], covs[t] = x, P
+
+    means, pred_means, innovations = (a.transpose(1, 0, 2)
+                                      for a in (means, pred_means, innovations))
+    step_logliks = step_logliks.T
+    covs, pred_covs, innovation_covs, gains = (a.swapaxes(0, 1) for a in (
+        covs, pred_covs, innovation_covs, gains))
     if D == 1:
-        K = cov.gains[0]                                   # (T, n, m), shared
-        IKC = eye_n - K @ C                                # (T, n, n)
-        # c_t = K_t y_t (+ (I - K_t C) B u_{t-1}), accumulated in place in x_tm
-        x_tm = y_tm @ _swap(K)
-        if Bus is not None:
-            Bu_tm = Bus[:, None, :] if Bus.ndim == 2 else Bus.transpose(1, 0, 2)
-            x_tm[1:] += Bu_tm @ _swap(IKC[1:])
-        # F_t^T = ((I - K_t C) A)^T, right-multiplying the rows of X
-        Ft = _swap(IKC @ A)
-        x_tm[0] += model.m0 @ IKC[0].T
-        for t in range(1, T):
-            x_tm[t] += x_tm[t - 1] @ Ft[t]
+        covs, pred_covs, innovation_covs, gains = (
+            np.broadcast_to(a[0], (M,) + a.shape[1:])
+            for a in (covs, pred_covs, innovation_covs, gains))
     else:
-        K = cov.gains[which].transpose(1, 0, 2, 3)         # (T, M, n, m)
-        IKC = eye_n - K @ C                                # (T, M, n, n)
-        x_tm = (K @ y_tm[..., None])[..., 0]               # (T, M, n)
-        if Bus is not None:
-            Bu_tm = Bus[:, None, :] if Bus.ndim == 2 else Bus.transpose(1, 0, 2)
-            x_tm[1:] += (IKC[1:] @ Bu_tm[..., None])[..., 0]
-        F = IKC @ A
-        x_tm[0] += IKC[0] @ model.m0
-        for t in range(1, T):
-            x_tm[t] += (F[t] @ x_tm[t - 1, :, :, None])[..., 0]
-    # x_{t|t-1} = A x_{t-1|t-1} + B u_{t-1}, x_{0|-1} = m0
-    pred_tm = np.empty((T, M, n))
-    pred_tm[0] = model.m0
-    np.matmul(x_tm[:-1], At, out=pred_tm[1:])
-    if Bus is not None:
-        pred_tm[1:] += Bus[:, None, :] if Bus.ndim == 2 else Bus.transpose(1, 0, 2)
-    # r_t = y_t - C x_{t|t-1}  (NaN rows of ys stay NaN)
-    innov_tm = pred_tm @ C.T
-    np.subtract(ys.transpose(1, 0, 2), innov_tm, out=innov_tm)
-    means, pred_means, innovations = (a.transpose(1, 0, 2) for a in (x_tm, pred_tm, innov_tm))
-    if D == 1:
-        step_logliks = _step_logliks(cov.chol_inv[0], cov.log_dets[0][:, None], observed.T,
-                                     innov_tm).T
-        covs, pred_covs, S, gains = (np.broadcast_to(a[0], (M,) + a.shape[1:])
-                                     for a in (cov.covs, cov.pred_covs, cov.S, cov.gains))
-    else:
-        step_logliks = _step_logliks(cov.chol_inv[which].transpose(1, 0, 2, 3),
-                                     cov.log_dets[which].T, observed.T, innov_tm).T
-        covs, pred_covs, S, gains = (a[which] for a in (cov.covs, cov.pred_covs, cov.S,
-                                                        cov.gains))
-        for a in (covs, pred_covs, S, gains):
+        covs, pred_covs, innovation_covs, gains = (
+            a[which] for a in (covs, pred_covs, innovation_covs, gains))
+        for a in (covs, pred_covs, innovation_covs, gains):
             a.setflags(write=False)
-    return FilterResult(means, covs, pred_means, pred_covs, innovations, S,
+    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
                         gains, step_logliks, step_logliks.sum(axis=1), observed)
 
 

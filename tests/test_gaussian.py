@@ -2,14 +2,17 @@
 
 References: the precision-matrix (Schur complement) form of Gaussian
 conditioning, least-squares regression on Monte Carlo draws, scipy.stats
-(multivariate_normal, chi2), explicit per-pair linear solves, and Monte
-Carlo coverage of the chi-square interval.
+(multivariate_normal, chi2), explicit per-pair linear solves, Monte Carlo
+coverage of the chi-square interval, the autocorrelation written out as a
+double loop, scipy's Cholesky factor, and Monte Carlo coverage of the
+whiteness band +-1.96 / sqrt(N).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import linalg as sla
 from scipy import stats
 
 import bayesfilt as bf
@@ -100,6 +103,24 @@ def test_condition_bad_inputs():
         ("mean_x", [[0.0, 0.0]], r"mean_x must be a vector of shape \(n,\)"),
     ]
     for key, bad, match in cases:
+        with pytest.raises(ValueError, match=match):
+            bf.gaussian.condition(**{**ok, key: bad})
+
+
+def test_condition_blames_the_argument_of_the_wrong_length():
+    """Each dimension is agreed on by several arguments; the one that disagrees is named
+    (a wrong-length mean_y used to be reported as a wrong cov_xy)."""
+    ok = dict(mean_x=[0.0, 0.0], mean_y=[0.0], cov_xx=np.eye(2), cov_xy=[[0.5], [0.0]],
+              cov_yy=[[1.0]], y=[1.0])
+    for key, bad, match in [
+        ("mean_y", [0.0, 0.0], r"mean_y must have shape \(1,\), got shape \(2,\)"),
+        ("mean_x", [0.0, 0.0, 0.0], r"mean_x must have shape \(2,\), got shape \(3,\)"),
+        ("cov_yy", np.eye(2), r"cov_yy must have shape \(1, 1\), got shape \(2, 2\)"),
+        ("cov_xx", np.eye(3), r"cov_xx must have shape \(2, 2\), got shape \(3, 3\)"),
+        ("cov_xy", [[0.5, 0.1], [0.0, 0.0]],
+         r"cov_xy must have shape \(2, 1\), got shape \(2, 2\)"),
+        ("y", [1.0, 2.0], r"y must have shape \(1,\), got shape \(2,\)"),
+    ]:
         with pytest.raises(ValueError, match=match):
             bf.gaussian.condition(**{**ok, key: bad})
 
@@ -223,6 +244,30 @@ def test_squared_mahalanobis_bad_inputs():
         bf.gaussian.squared_mahalanobis(1.0, np.eye(1))
 
 
+def test_squared_mahalanobis_on_missing_rows_says_to_select_the_observed_rows():
+    """A filter result has NaN innovations (and innovation covariances) on its missing rows;
+    the error must say how to leave them out, and the suggested call must work."""
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 20, np.random.default_rng(7)).ys
+    ys[[3, 11]] = np.nan
+    res = bf.kalman.kalman_filter(model, ys)
+    hint = r"select the observed rows.*res\.innovations\[res\.observed\]"
+    with pytest.raises(ValueError, match=r"diffs must be finite, got NaN at index \(3, 0\).*"
+                                         + hint):
+        bf.gaussian.squared_mahalanobis(res.innovations, res.innovation_covs)
+    with pytest.raises(ValueError, match=r"covs must be finite, got NaN at index \(3, 0, 0\).*"
+                                         + hint):
+        bf.gaussian.squared_mahalanobis(np.zeros((20, 2)), res.innovation_covs)
+    nis = bf.gaussian.squared_mahalanobis(res.innovations[res.observed],
+                                          res.innovation_covs[res.observed])
+    ref = [r @ np.linalg.solve(S, r) for r, S in zip(res.innovations, res.innovation_covs)
+           if np.isfinite(r).all()]
+    np.testing.assert_allclose(nis, ref, rtol=1e-10)
+    # inf is not a missing row: the plain message
+    with pytest.raises(ValueError, match="diffs must be finite, got NaN or inf"):
+        bf.gaussian.squared_mahalanobis([np.inf, 0.0], np.eye(2))
+
+
 # --------------------------------------------------------------------------
 # chi2_interval
 # --------------------------------------------------------------------------
@@ -259,3 +304,129 @@ def test_chi2_interval_bad_inputs():
         bf.gaussian.chi2_interval(2, confidence=1.0)
     with pytest.raises(TypeError, match="confidence must be a real number"):
         bf.gaussian.chi2_interval(2, confidence="high")
+
+
+# --------------------------------------------------------------------------
+# Innovation whiteness: normalised_innovations and autocorrelation
+# --------------------------------------------------------------------------
+
+def _autocorrelation_double_loop(x, max_lag):
+    """gamma(k) = sum_t (x_t - xbar)(x_{t+k} - xbar) / sum_t (x_t - xbar)^2, written out."""
+    N = len(x)
+    xbar = sum(x) / N
+    denom = sum((x[t] - xbar) ** 2 for t in range(N))
+    return [sum((x[t] - xbar) * (x[t + k] - xbar) for t in range(N - k)) / denom
+            for k in range(1, max_lag + 1)]
+
+
+def test_autocorrelation_equals_double_loop():
+    rng = np.random.default_rng(20)
+    x = rng.standard_normal(40).cumsum()  # strongly correlated, so every lag matters
+    got = bf.gaussian.autocorrelation(x, 12)
+    assert got.shape == (12,)
+    np.testing.assert_allclose(got, _autocorrelation_double_loop(list(x), 12), rtol=1e-12,
+                               atol=1e-15)
+    cols = rng.standard_normal((30, 3)) + [0.0, 5.0, -2.0]
+    got = bf.gaussian.autocorrelation(cols, 29)
+    assert got.shape == (29, 3)
+    for j in range(3):
+        np.testing.assert_allclose(got[:, j], _autocorrelation_double_loop(list(cols[:, j]), 29),
+                                   rtol=1e-12, atol=1e-15)
+
+
+def test_autocorrelation_of_white_noise_stays_in_the_band_95_percent_of_the_time():
+    """For white noise each gamma(k), k >= 1, is about N(0, 1/N), so +-1.96 / sqrt(N) holds
+    about 95 % of the lags; an AR(1) sequence leaves the band (the test can fail)."""
+    rng = np.random.default_rng(21)
+    N, runs, max_lag = 500, 400, 20
+    acf = bf.gaussian.autocorrelation(rng.standard_normal((N, runs)), max_lag)
+    inside = np.mean(np.abs(acf) < 1.96 / np.sqrt(N))
+    # Tolerance. The 8000 values are (nearly) independent for white noise, so the fraction
+    # has SE sqrt(0.95 * 0.05 / 8000) = 0.0024; 5 SE = 0.012. On top, at finite N the
+    # biased estimator has Var gamma(k) = (N - k) / (N (N + 2)) < 1/N (Bartlett), which
+    # raises the expected coverage to between 0.9507 (k = 1) and 0.9547 (k = 20); allow 0.005.
+    assert abs(inside - 0.95) < 0.012 + 0.005
+    # AR(1) with coefficient 0.5: gamma(1) = 0.5, with SE about sqrt((1 - 0.5^2) / N) = 0.04
+    e = rng.standard_normal(N)
+    ar = np.empty(N)
+    ar[0] = e[0]
+    for t in range(1, N):
+        ar[t] = 0.5 * ar[t - 1] + e[t]
+    rho = bf.gaussian.autocorrelation(ar, max_lag)
+    assert abs(rho[0] - 0.5) < 5 * np.sqrt(0.75 / N)
+    assert np.mean(np.abs(rho) < 1.96 / np.sqrt(N)) < 0.9
+
+
+def test_normalised_innovations_whiten_with_the_cholesky_factor():
+    rng = np.random.default_rng(22)
+    T, m = 8, 3
+    S = np.stack([random_spd(rng, m) for _ in range(T)])
+    r = rng.standard_normal((T, m))
+    z = bf.gaussian.normalised_innovations(r, S)
+    assert z.shape == (T, m)
+    for t in range(T):
+        # z_t = L_t^{-1} r_t with L_t the lower Cholesky factor (scipy's, not numpy's)
+        L = sla.cholesky(S[t], lower=True)
+        np.testing.assert_allclose(L @ z[t], r[t], rtol=1e-12, atol=1e-14)
+        # |z_t|^2 is the NIS r_t^T S_t^{-1} r_t
+        np.testing.assert_allclose(z[t] @ z[t], r[t] @ np.linalg.solve(S[t], r[t]), rtol=1e-12)
+
+
+def test_whiteness_of_a_consistent_kalman_filter():
+    """The filter's normalised innovations on data from its own model are N(0, I) and white:
+    sample covariance I within 5 SE, and about 95 % of the lags inside the band."""
+    model = bf.models.damped_particle()
+    T = 3000
+    ys = bf.models.simulate(model, T, np.random.default_rng(23)).ys
+    res = bf.kalman.kalman_filter(model, ys)
+    z = bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)
+    # SE of a sample variance of N(0, 1) is sqrt(2 / T), of a covariance sqrt(1 / T)
+    cov = np.cov(z.T)
+    assert np.all(np.abs(cov - np.eye(2)) < 5 * np.sqrt(np.array([[2, 1], [1, 2]]) / T))
+    acf = bf.gaussian.autocorrelation(z, 50)
+    # 100 values: the fraction inside has SE sqrt(0.95 * 0.05 / 100) = 0.022; allow 4 SE
+    assert abs(np.mean(np.abs(acf) < 1.96 / np.sqrt(T)) - 0.95) < 4 * 0.022
+
+
+def test_whiteness_helpers_on_missing_rows_say_to_select_the_observed_rows():
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 30, np.random.default_rng(24)).ys
+    ys[[0, 9]] = np.nan
+    res = bf.kalman.kalman_filter(model, ys)
+    hint = (r"select the observed rows, e\.g\. normalised_innovations\(res\.innovations"
+            r"\[res\.observed\], res\.innovation_covs\[res\.observed\]\)")
+    with pytest.raises(ValueError, match=r"innovations must be finite, got NaN at index \(0, 0\)"
+                                         r"\. .*" + hint):
+        bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)
+    z = bf.gaussian.normalised_innovations(res.innovations[res.observed],
+                                           res.innovation_covs[res.observed])
+    assert z.shape == (28, 2)
+    with pytest.raises(ValueError, match=r"x must be finite, got NaN at index \(0, 0\).*" + hint):
+        bf.gaussian.autocorrelation(res.innovations, 5)
+
+
+def test_whiteness_helpers_bad_inputs():
+    S = np.broadcast_to(np.eye(2), (5, 2, 2))
+    with pytest.raises(ValueError, match=r"innovations must have shape \(T, m\)"):
+        bf.gaussian.normalised_innovations(np.zeros(5), S)
+    with pytest.raises(ValueError, match=r"innovation_covs must have shape \(5, 2, 2\)"):
+        bf.gaussian.normalised_innovations(np.zeros((5, 2)), np.eye(2))
+    with pytest.raises(ValueError, match="innovation_covs must be positive definite"):
+        bf.gaussian.normalised_innovations(np.zeros((1, 2)), [[[1.0, 2.0], [2.0, 1.0]]])
+    with pytest.raises(ValueError, match="innovation_covs must be symmetric"):
+        bf.gaussian.normalised_innovations(np.zeros((1, 2)), [[[1.0, 0.5], [0.0, 1.0]]])
+    with pytest.raises(ValueError, match="innovations must be finite, got NaN or inf"):
+        bf.gaussian.normalised_innovations([[np.inf, 0.0]], [np.eye(2)])
+    x = np.arange(10.0)
+    with pytest.raises(ValueError, match=r"max_lag must be <= N - 1 = 9, got 10"):
+        bf.gaussian.autocorrelation(x, 10)
+    with pytest.raises(ValueError, match="max_lag must be >= 1"):
+        bf.gaussian.autocorrelation(x, 0)
+    with pytest.raises(TypeError, match="max_lag must be an integer"):
+        bf.gaussian.autocorrelation(x, 2.0)
+    with pytest.raises(ValueError, match="x is constant"):
+        bf.gaussian.autocorrelation(np.c_[x, np.ones(10)], 3)
+    with pytest.raises(ValueError, match=r"x must have shape \(N,\) or \(N, m\)"):
+        bf.gaussian.autocorrelation(np.zeros((4, 2, 2)), 1)
+    with pytest.raises(ValueError, match="x needs at least 2 samples"):
+        bf.gaussian.autocorrelation([1.0], 1)

@@ -3,11 +3,15 @@
 References: filterpy 2.0.0 (KalmanFilter and its module-level predict/update),
 the joint Gaussian of all measurements written out by brute force (log
 likelihood and posterior of a short run, with missing rows), a plain
-iteration of the Riccati recursion, the seed's textbook P - K C P form, and the
-information form 1 / (1 / p + 1 / r) of a scalar update (where Joseph and P - K C P differ).
+iteration of the Riccati recursion, the seed's textbook P - K C P form, the
+information form 1 / (1 / p + 1 / r) of a scalar update (where Joseph and P - K C P differ),
+scalar filters in closed form (measurement components in very different units), and the
+public predict/update called step by step (kalman_filter must equal them bit for bit).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -210,8 +214,8 @@ def test_joseph_form_where_it_differs_from_textbook_form():
 
 
 def test_joseph_form_in_the_filters():
-    """The same through every covariance recursion of kalman_filter and batch_kalman_filter
-    (one missing-data pattern, a few, and many), against the information-form variance."""
+    """The same through kalman_filter and batch_kalman_filter (one missing-data pattern, a
+    few, and many), against the information-form variance."""
     model = _vague_prior_model()
     T = 8
     ys = np.zeros((T, 1))
@@ -236,6 +240,79 @@ def test_update_is_scalar_friendly():
     step = bf.kalman.update(0.0, 1.0, 0.9, 1.0, 0.5)
     np.testing.assert_allclose(step.mean, [0.6])
     np.testing.assert_allclose(step.cov, [[1.0 / 3.0]])
+
+
+def test_measurement_components_in_very_different_units():
+    """R = diag(1, 1e-6), P0 = diag(1e10, 1e-6), A = C = I: two independent scalar filters,
+    one in metres with a vague prior, one in micrometres. S = diag(1e10 + 1, 2e-6) is far
+    from singular (each pivot equals its own diagonal entry), so it must be accepted by the
+    single step and by both filters. Reference: the two scalar filters in closed form."""
+    r, q = np.array([1.0, 1e-6]), np.array([1e-2, 1e-8])
+    model = bf.models.LinearGaussian(A=np.eye(2), C=np.eye(2), Q=np.diag(q), R=np.diag(r),
+                                     m0=np.zeros(2), P0=np.diag([1e10, 1e-6]))
+    T = 6
+    ys = np.random.default_rng(3).standard_normal((T, 2)) * np.sqrt(r)
+    # scalar filters: S = p + r, x += p / S (y - x), p = 1 / (1 / p + 1 / r)
+    x, p = model.m0.copy(), np.diag(model.P0).copy()
+    means, variances, loglik = [], [], 0.0
+    for t in range(T):
+        if t > 0:
+            p = p + q
+        S = p + r
+        loglik += np.sum(-0.5 * ((ys[t] - x) ** 2 / S + np.log(2 * np.pi * S)))
+        x = x + p / S * (ys[t] - x)
+        p = 1.0 / (1.0 / p + 1.0 / r)
+        means.append(x)
+        variances.append(p)
+    step = bf.kalman.update(model.m0, model.P0, ys[0], model.C, model.R)
+    np.testing.assert_allclose(np.diag(step.cov), variances[0], rtol=1e-9)
+    res = bf.kalman.kalman_filter(model, ys)
+    np.testing.assert_allclose(res.means, means, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(np.diagonal(res.covs, axis1=1, axis2=2), variances, rtol=1e-9)
+    np.testing.assert_allclose(res.loglik, loglik, rtol=1e-9)
+    batch = bf.kalman.batch_kalman_filter(model, np.stack([ys, ys]))
+    np.testing.assert_allclose(batch.loglik, [loglik, loglik], rtol=1e-9)
+
+
+# --------------------------------------------------------------------------
+# The whole-run filter is the single steps in a loop
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("with_inputs", [False, True])
+@pytest.mark.parametrize("missing", [[], [0, 4, 5, 17, 29]])
+def test_kalman_filter_is_predict_and_update_in_a_loop(missing, with_inputs):
+    """kalman_filter must give bit for bit what a student gets by calling the public
+    predict and update in a loop (np.array_equal, not allclose)."""
+    rng = np.random.default_rng(40 + len(missing))
+    model = random_model(rng, 4, 2, q=3, p=2 if with_inputs else None)
+    T = 30
+    us = rng.standard_normal((T - 1, 2)) if with_inputs else None
+    ys = bf.models.simulate(model, T, rng, us=us).ys
+    ys[missing] = np.nan
+    res = bf.kalman.kalman_filter(model, ys, us)
+    x, P = model.m0, model.P0
+    logliks = []
+    for t in range(T):
+        if t > 0:
+            x, P = bf.kalman.predict(x, P, model.A, model.Q, G=model.G, B=model.B,
+                                     u=None if us is None else us[t - 1])
+        assert np.array_equal(res.pred_means[t], x), t
+        assert np.array_equal(res.pred_covs[t], P), t
+        if t in missing:
+            assert np.isnan(res.innovations[t]).all() and np.isnan(res.innovation_covs[t]).all()
+            assert (res.gains[t] == 0).all() and res.step_logliks[t] == 0
+            assert not res.observed[t]
+        else:
+            step = bf.kalman.update(x, P, ys[t], model.C, model.R)
+            assert np.array_equal(res.gains[t], step.gain), t
+            assert np.array_equal(res.innovations[t], step.innovation), t
+            assert np.array_equal(res.innovation_covs[t], step.innovation_cov), t
+            assert res.step_logliks[t] == step.loglik, t
+            logliks.append(step.loglik)
+            x, P = step.mean, step.cov
+        assert np.array_equal(res.means[t], x), t
+        assert np.array_equal(res.covs[t], P), t
+    assert res.loglik == pytest.approx(math.fsum(logliks), rel=1e-14, abs=0)
 
 
 # --------------------------------------------------------------------------
@@ -298,7 +375,7 @@ def test_known_inputs_equal_filterpy_B_u():
 
 
 def test_damped_particle_long_run_equals_filterpy():
-    """Long enough for the covariance recursion to reach its fixed point (reused steps)."""
+    """Long enough for the covariance recursion to reach its floating-point fixed point."""
     model = bf.models.damped_particle()
     ys = bf.models.simulate(model, 600, np.random.default_rng(5)).ys
     ours = bf.kalman.kalman_filter(model, ys)
@@ -374,7 +451,7 @@ def test_covariance_recursion_equals_textbook_form(particle):
 
 def test_covariances_stay_symmetric_psd_over_1e5_steps():
     """A hard case: nearly noise-free position measurements of a constant-velocity state,
-    a vague prior and 30 % of the rows missing at random (so no step is a repeat)."""
+    a vague prior and 30 % of the rows missing at random (so the recursion never settles)."""
     rng = np.random.default_rng(0)
     model = bf.models.LinearGaussian(A=[[1.0, 1.0], [0.0, 1.0]], C=[[1.0, 0.0]],
                                      Q=[[1e-6]], R=[[1e-8]], m0=[0.0, 0.0],
@@ -445,7 +522,8 @@ def test_batch_with_inputs_one_pattern_and_few_patterns():
 
 
 def test_batch_equals_per_sequence_few_patterns(particle):
-    """2-4 distinct patterns take another code path (one recursion per pattern)."""
+    """A few distinct patterns: the covariances are computed per pattern, vectorised over the
+    patterns, and each sequence picks its pattern's gain."""
     model, _ = particle
     rng = np.random.default_rng(12)
     ys = np.stack([bf.models.simulate(model, 150, rng).ys for _ in range(5)])
