@@ -139,9 +139,11 @@ def update(x, P, y, h, H, R, residual=None) -> Update:
 
     with :math:`H = \partial h / \partial x` at :math:`\hat x_{t|t-1}`.
     The seed (after Kay) writes :math:`M[n|n] = (I - K H) M[n|n-1]`; the
-    Joseph form used here is algebraically equal for the optimal gain K but
-    stays symmetric and positive semi-definite under rounding (filterpy uses
-    it too).
+    Joseph form used here is algebraically equal for the optimal gain K; it is
+    a sum of two positive semi-definite terms for *any* gain, so it avoids the
+    cancellation that can make :math:`P - KHP` indefinite under rounding
+    (see ``bf.kalman.update`` for what it does and does not guarantee;
+    filterpy uses it too).
 
     Parameters
     ----------
