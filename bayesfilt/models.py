@@ -716,9 +716,13 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
     which loses the quadrant once :math:`r_x < 0`; ``atan2`` does not, and the
     bearing innovation is wrapped into :math:`(-\pi, \pi]`.
 
-    The filter prior is Kay's: ``m0 = [5, 5, 0, 0]``, ``P0 = 100 I``. The true
-    vehicle starts at :data:`RANGE_BEARING_TRUE_START` (pass it as ``x0`` to
-    :func:`simulate`).
+    The filter prior is Example 13.4's numbers, ``m0 = [5, 5, 0, 0]``,
+    ``P0 = 100 I``, applied at n = 0 (the course's x_0, measured by y_0).
+    Kay applies them one step earlier, to :math:`\hat s[-1|-1]`,
+    :math:`M[-1|-1]`, and predicts once; the exact equivalent at n = 0 is
+    ``m0`` unchanged (zero velocity) and ``P0 = A (100 I) A^T + G Q G^T``
+    (chapter 04). The true vehicle starts at :data:`RANGE_BEARING_TRUE_START`
+    (pass it as ``x0`` to :func:`simulate`).
 
     Parameters
     ----------
