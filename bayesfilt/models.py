@@ -180,7 +180,7 @@ class _ModelBase:
         """
         rng = as_rng("rng", rng)
         batch, single = _as_states("xs", xs, self.state_dim)
-        mean = self.transition_mean(batch, u, t)
+        mean = self._transition_mean(batch, u, t)
         # G w = G L z with L L^T = Q, z ~ N(0, I): one noise draw per particle
         GL = self.G @ _noise_factor(self.Q)
         z = rng.standard_normal((batch.shape[0], self.noise_dim))
@@ -194,7 +194,7 @@ class _ModelBase:
         batch, single = _as_states("xs", xs, self.state_dim)
         # y = h(x) + v, v = L z with L L^T = R
         v = rng.standard_normal((batch.shape[0], self.obs_dim)) @ _noise_factor(self.R).T
-        out = self.measurement_mean(batch) + v
+        out = self._measurement_mean(batch) + v
         return out[0] if single else out
 
     def measurement_logpdf(self, y, xs) -> np.ndarray:
@@ -212,7 +212,7 @@ class _ModelBase:
         """
         y = as_vector("y", y, self.obs_dim)
         batch, single = _as_states("xs", xs, self.state_dim)
-        residuals = self.residual(y[None, :], self.measurement_mean(batch))
+        residuals = self.residual(y[None, :], self._measurement_mean(batch))
         out = _logpdf_rows(residuals, _cholesky("R", self.R))
         return float(out[0]) if single else out
 
@@ -249,7 +249,7 @@ class _ModelBase:
             raise ValueError(f"x_next and xs must have the same number of rows (or one of them "
                              f"a single state), got {nxt.shape[0]} and {batch.shape[0]}")
         cov = self.G @ self.Q @ self.G.T
-        out = _logpdf_rows(nxt - self.transition_mean(batch, u, t), _cholesky("G Q G^T", cov))
+        out = _logpdf_rows(nxt - self._transition_mean(batch, u, t), _cholesky("G Q G^T", cov))
         return float(out[0]) if single else out
 
     def residual(self, y, y_pred) -> np.ndarray:
@@ -368,18 +368,27 @@ class LinearGaussian(_ModelBase):
     def transition_mean(self, xs, u=None, t: int = 0) -> np.ndarray:
         r"""Noise-free transition :math:`A x + B u` of each row of ``xs`` (N, n); ``t`` is unused."""
         batch, single = _as_states("xs", xs, self.state_dim)
+        out = self._transition_mean(batch, u, t)
+        return out[0] if single else out
+
+    def _transition_mean(self, batch, u, t):
+        # A x (+ B u) for a checked batch (N, n)
         out = batch @ self.A.T
         if u is not None:
             if self.B is None:
                 raise ValueError("u was given but the model has no control matrix B")
             out = out + as_vector("u", u, self.control_dim) @ self.B.T
-        return out[0] if single else out
+        return out
 
     def measurement_mean(self, xs) -> np.ndarray:
         r"""Noise-free measurement :math:`C x` of each row of ``xs`` (N, n)."""
         batch, single = _as_states("xs", xs, self.state_dim)
-        out = batch @ self.C.T
+        out = self._measurement_mean(batch)
         return out[0] if single else out
+
+    def _measurement_mean(self, batch):
+        # C x for a checked batch (N, n)
+        return batch @ self.C.T
 
 
 # --------------------------------------------------------------------------
@@ -490,18 +499,26 @@ class NonlinearGaussian(_ModelBase):
 
     def transition_mean(self, xs, u=None, t: int = 0) -> np.ndarray:
         """:math:`f(x)` (or :math:`f(x, t)` for a time-varying model) of each row of ``xs``."""
+        batch, single = _as_states("xs", xs, self.state_dim)
+        out = self._transition_mean(batch, u, t)
+        return out[0] if single else out
+
+    def _transition_mean(self, batch, u, t):
+        # f(x) for a checked batch (N, n); what the user function returns is checked
         if u is not None:
             raise ValueError("NonlinearGaussian takes no control input u")
-        batch, single = _as_states("xs", xs, self.state_dim)
         f, _ = self.transition_functions(t)
-        out = check_output("f", f(batch), batch.shape)
-        return out[0] if single else out
+        return check_output("f", f(batch), batch.shape)
 
     def measurement_mean(self, xs) -> np.ndarray:
         """:math:`h(x)` of each row of ``xs``."""
         batch, single = _as_states("xs", xs, self.state_dim)
-        out = check_output("h", self.h(batch), (batch.shape[0], self.obs_dim))
+        out = self._measurement_mean(batch)
         return out[0] if single else out
+
+    def _measurement_mean(self, batch):
+        # h(x) for a checked batch (N, n); what the user function returns is checked
+        return check_output("h", self.h(batch), (batch.shape[0], self.obs_dim))
 
     def residual(self, y, y_pred) -> np.ndarray:
         """Innovation: ``residual_fn(y, y_pred)`` if given, else ``y - y_pred``."""

@@ -181,9 +181,14 @@ def log_normalize(log_weights) -> tuple[np.ndarray, float]:
     if np.isnan(lw).any() or np.isposinf(lw).any():
         i = int(np.flatnonzero(np.isnan(lw) | np.isposinf(lw))[0])
         raise ValueError(f"log_weights must be finite or -inf, got log_weights[{i}] = {lw[i]}")
-    m = lw.max()
-    if m == -np.inf:
+    if lw.max() == -np.inf:
         raise ValueError("log_weights are all -inf: every weight is zero, nothing to normalise")
+    return _log_normalize(lw)
+
+
+def _log_normalize(lw: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`log_normalize` of checked log-weights (no NaN, no +inf, not all -inf)."""
+    m = lw.max()
     shifted = lw - m
     # log sum_j exp(l_j) = m + log sum_j exp(l_j - m): the largest term is exp(0) = 1
     log_rest = np.log(np.sum(np.exp(shifted)))
@@ -346,17 +351,17 @@ def sis_step(model, rng, particles, log_weights, y, t: int, proposal=None, u=Non
 
 def _normalize_or_explain(lw, t, y):
     """:func:`log_normalize`, with an error that says which step failed and why."""
-    if np.isnan(lw).any():
-        raise ValueError("a log-weight is NaN (a log-density of the model or the proposal "
-                         "returned NaN)")
-    if np.all(lw == -np.inf):
+    if not (lw < np.inf).all():  # false for NaN and +inf
+        raise ValueError("a log-weight is NaN or +inf (a log-density of the model or the "
+                         "proposal returned NaN or +inf)")
+    if lw.max() == -np.inf:
         raise ValueError(
             f"every particle's weight is zero: the measurement y_{t} = "
             f"{np.array2string(np.asarray(y), precision=4)} is impossible (log-likelihood -inf, "
             f"below floating point) under every particle. The particles missed the region the "
             f"measurement points to: use more particles, a proposal that looks at y_t, or check "
             f"the measurement model, its noise R and the data")
-    return log_normalize(lw)
+    return _log_normalize(lw)
 
 
 # --------------------------------------------------------------------------
