@@ -1,0 +1,547 @@
+"""Tests of bayesfilt.checks.ch03, the checks of the exercises of chapter 03.
+
+For every exercise: the reference answer, computed here independently of the
+check (the Riccati recursion iterated in plain numpy, a Kalman filter written
+out with P - KCP, the covariance recursion without measurements, a loop with
+np.linalg.inv, the autocorrelation formula), is accepted; plausible wrong
+answers are rejected, each with its own diagnosis; None and
+NotImplementedError mean "not attempted yet"; garbage never raises; no
+message shows the reference. The statements in the notebook use the numbers
+of the module.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bayesfilt as bf
+from bayesfilt.checks import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
+
+ch03 = bf.checks.ch03
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOK = ROOT / "notebooks" / "03_damped_particle.ipynb"
+inv = np.linalg.inv
+
+# Seed 000's damped particle, typed from the seed (not taken from the library).
+Q_VAR, R_VAR = 0.01, 1.0
+G = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 0.0], [0.0, 1.0]])
+C = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
+GQG = G @ (Q_VAR * np.eye(2)) @ G.T
+
+
+def transition(damping):
+    return np.array([[1, 1, 0, 0], [0, damping, 0, 0], [0, 0, 1, 1], [0, 0, 0, damping]], float)
+
+
+A = transition(0.98)
+
+
+def correct(fb):
+    assert isinstance(fb, Feedback)
+    assert fb.status == CORRECT, fb.message
+    assert repr(fb).startswith("Correct: ")
+
+
+def wrong(fb, *phrases):
+    assert isinstance(fb, Feedback)
+    assert fb.status == INCORRECT, fb
+    for phrase in phrases:
+        assert phrase in fb.message, fb.message
+    assert repr(fb).startswith("Not yet: ")
+
+
+def not_attempted(fb):
+    assert isinstance(fb, Feedback)
+    assert fb.status == NOT_ATTEMPTED, fb
+    assert repr(fb).startswith("Not attempted yet: ")
+
+
+def hides(fb, *expected):
+    """The message does not show the reference (entries to 3 significant digits; a short
+    number such as 1 or 4 would be found in any text, so only three digits or more count)."""
+    for v in np.concatenate([np.ravel(e) for e in expected]):
+        text = f"{v:.3g}"
+        if abs(v) > 1e-12 and sum(ch.isdigit() for ch in text) >= 3:
+            assert text not in fb.message, (v, fb.message)
+
+
+def not_implemented(*args):
+    raise NotImplementedError("Exercise: write this function")
+
+
+GARBAGE = ["text", [[1.0, 2.0], [3.0]], np.ones(3), np.ones((3, 3)), np.full((2, 2), np.nan),
+           {"a": 1}, object(), True, np.array([[1j, 0], [0, 1]]), [], np.full((3, 2), 1e308),
+           float("nan"), float("inf"), 1e308]
+
+
+def plain_filter(A, C, GQG, R, m0, P0, ys):
+    """The Kalman filter written out (seed 000's order: update first), P - KCP; a row of NaN
+    is a missing measurement. Returns the filtered means, covariances, innovations and S."""
+    x, P = np.array(m0, float), np.array(P0, float)
+    means, covs, innovations, Ss = [], [], [], []
+    for t, y in enumerate(ys):
+        if t > 0:
+            x, P = A @ x, A @ P @ A.T + GQG
+        if not np.all(np.isnan(y)):
+            S = C @ P @ C.T + R
+            K = P @ C.T @ inv(S)
+            r = y - C @ x
+            x, P = x + K @ r, P - K @ C @ P
+            innovations.append(r)
+            Ss.append(S)
+        means.append(x)
+        covs.append(P)
+    return np.array(means), np.array(covs), np.array(innovations), np.array(Ss)
+
+
+# ---------------------------------------------------------------------------
+# The statements and the module use the same numbers; the answer cells follow the pattern
+# ---------------------------------------------------------------------------
+
+def _cells():
+    nb = json.loads(NOTEBOOK.read_text(encoding="utf-8"))
+    return [("".join(c["source"]), c["cell_type"]) for c in nb["cells"]]
+
+
+def _answer_cells() -> dict[int, str]:
+    out, n = {}, None
+    for source, kind in _cells():
+        if kind == "markdown" and source.startswith("### Exercise "):
+            n = int(source.split()[2])
+        elif kind == "code" and "### BEGIN SOLUTION" in source:
+            out[n] = source
+    return out
+
+
+def _statements() -> dict[int, str]:
+    return {int(source.split()[2]): source for source, kind in _cells()
+            if kind == "markdown" and source.startswith("### Exercise ")}
+
+
+def test_the_notebook_states_the_numbers_of_the_module():
+    cells, text = _answer_cells(), _statements()
+    assert sorted(cells) == [1, 2, 3, 4, 5]
+    assert f"damped_particle(damping={ch03.DAMPING_1})" in cells[1]
+    assert "C=[[1.0, 0.0, 0.0, 0.0]]" in cells[2] and "R=[[1.0]]" in cells[2]
+    np.testing.assert_array_equal(ch03.C_2, [[1.0, 0.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(ch03.R_2, [[1.0]])
+    assert "ys[:, :1]" in cells[2] and "(P_{99\\mid 99})" in text[2] and ch03.STEP_2 == 99
+    assert "0.95" in text[3] and ch03.CORRELATED_3[0, 1] == 0.95
+    assert "ys_cut[40:40 + length] = np.nan" in cells[4] and ch03.GAP_START == 40
+    assert "10, 20, 1 (the single step $t = 40$), 2, 5, 33 and 60" in text[4]
+    assert ch03.GAP_LENGTHS == (10, 20, 1, 2, 5, 33, 60) and ch03.SLOPE_LENGTHS == (10, 20)
+    assert 'models_5 = [wrong["Q ×10"], wrong["R ×0.1"], wrong["R ×10"]]' in cells[5]
+    assert [label for label, _ in ch03.MODELS_5] == ["Q ×10", "R ×0.1", "R ×10"]
+    # section 5 defines wrong[...] with the keyword arguments of the module
+    section_5 = next(s for s, kind in _cells() if kind == "code" and s.startswith("wrong = {"))
+    for label, kw in ch03.MODELS_5:
+        (name, value), = kw.items()
+        assert f'"{label}": bf.models.damped_particle({name}={value})' in section_5
+    for keyword in ("`force_var=0.1`", "`meas_var=0.1`", "`meas_var=10`"):
+        assert keyword in text[5], keyword
+    assert "N = 1000" in text[5] and "seed 5" in text[5]
+    assert (ch03.LONG_SEED, ch03.N_LONG) == (5, 1000)
+
+
+def test_solution_blocks_hold_only_defs_and_answer_assignments():
+    """What tools/make_student_edition.py can stub: top-level defs and assignments only."""
+    answers = {1: {"stabilising_1", "std_1", "radius_1"}, 2: {"rank_2", "detectable_2", "var_2"},
+               3: {"normalised_squared"}, 4: {"end_of_gap_variance", "slope_4"},
+               5: {"lag1_5", "sees_5"}}
+    for n, source in _answer_cells().items():
+        assert source.count("### BEGIN SOLUTION") == 1 and source.count("### END SOLUTION") == 1
+        block = source.split("### BEGIN SOLUTION\n")[1].split("### END SOLUTION")[0]
+        names = set()
+        for node in ast.parse(block).body:
+            assert isinstance(node, (ast.FunctionDef, ast.Assign)), (n, ast.dump(node)[:80])
+            if isinstance(node, ast.FunctionDef):
+                names.add(node.name)
+            else:
+                names.update(t.id for t in node.targets)
+        assert names == answers[n]
+
+
+def test_check_cells_are_a_single_call():
+    calls = [source for source, kind in _cells() if kind == "code" and "bf.checks.ch03" in source]
+    assert calls == ["bf.checks.ch03.exercise_1(stabilising_1, std_1, radius_1)",
+                     "bf.checks.ch03.exercise_2(rank_2, detectable_2, var_2)",
+                     "bf.checks.ch03.exercise_3(normalised_squared)",
+                     "bf.checks.ch03.exercise_4(end_of_gap_variance, slope_4)",
+                     "bf.checks.ch03.exercise_5(lag1_5, sees_5)"]
+
+
+# ---------------------------------------------------------------------------
+# Exercise 1: no damping
+# ---------------------------------------------------------------------------
+
+def riccati_limit(damping, steps=3000):
+    """Iterate the Riccati recursion from P0 = I: (predicted P, gain K, filtered P)."""
+    A_d, R = transition(damping), R_VAR * np.eye(2)
+    P = np.eye(4)
+    for _ in range(steps):
+        K = P @ C.T @ inv(C @ P @ C.T + R)
+        P = A_d @ (P - K @ C @ P) @ A_d.T + GQG
+    K = P @ C.T @ inv(C @ P @ C.T + R)
+    return P, K, P - K @ C @ P
+
+
+P1, K1, F1 = riccati_limit(1.0)
+EIG_1 = np.linalg.eigvals(transition(1.0) @ (np.eye(4) - K1 @ C))
+STD_1, RADIUS_1 = np.sqrt(F1[0, 0]), np.abs(EIG_1).max()
+P98, K98, F98 = riccati_limit(0.98)
+
+
+def test_exercise_1_accepts_the_riccati_limit_and_rounding():
+    assert RADIUS_1 < 1, "the undamped filter must be stable: the DARE has a stabilising solution"
+    correct(ch03.exercise_1("yes", STD_1, RADIUS_1))
+    correct(ch03.exercise_1(" Yes", np.float64(STD_1), np.array([RADIUS_1])))
+    correct(ch03.exercise_1("yes", round(STD_1, 4), round(RADIUS_1, 4)))
+
+
+@pytest.mark.parametrize("std, phrases", [
+    (np.sqrt(F98[0, 0]), ["section 7's value", "damping=1.0"]),
+    (F1[0, 0], ["variance", "square root"]),
+    (np.sqrt(P1[0, 0]), ["prediction", "after the measurement update"]),
+    (np.sqrt(P98[0, 0]), ["prediction's standard deviation", "damped model"]),
+    (np.sqrt(F1[1, 1]), ["velocity x1_dot"]),
+    (np.sqrt(F1[0, 0] + F1[2, 2]), ["both positions"]),
+    (1.0, ["one measurement"]),
+    (0.1, ["too small"]),
+])
+def test_exercise_1_diagnoses_the_standard_deviation(std, phrases):
+    fb = ch03.exercise_1("yes", std, RADIUS_1)
+    wrong(fb, "std_1", *phrases)
+    assert "stabilising_1: correct." in fb.message and "radius_1: correct." in fb.message
+    hides(fb, STD_1, RADIUS_1)
+
+
+@pytest.mark.parametrize("radius, phrases", [
+    (np.abs(np.linalg.eigvals(A @ (np.eye(4) - K98 @ C))).max(), ["section 7's value"]),
+    (RADIUS_1 ** 2, ["|lambda|_max²", "itself"]),
+    (1.0, ["spectral radius of A", "A (I - K_inf C)"]),
+    (np.abs(EIG_1.real).max(), ["real part", "np.abs"]),
+    (np.abs(np.linalg.eigvals(transition(1.0) - K1 @ C)).max(), ["A - K_inf C"]),
+])
+def test_exercise_1_diagnoses_the_spectral_radius(radius, phrases):
+    fb = ch03.exercise_1("yes", STD_1, radius)
+    wrong(fb, "radius_1", *phrases)
+    hides(fb, STD_1, RADIUS_1)
+
+
+def test_exercise_1_the_choice():
+    wrong(ch03.exercise_1("no", STD_1, RADIUS_1), "stabilising_1 is not the right option",
+          "section 7's two conditions")
+    wrong(ch03.exercise_1(True, STD_1, RADIUS_1), "must be one of ['yes', 'no']")
+
+
+def test_exercise_1_not_attempted_and_garbage():
+    not_attempted(ch03.exercise_1(None, None, None))
+    fb = ch03.exercise_1("yes", None, RADIUS_1)
+    assert fb.status == NOT_ATTEMPTED and "std_1: not attempted yet" in fb.message
+    for garbage in GARBAGE:
+        fb = ch03.exercise_1(garbage, garbage, garbage)
+        assert fb.status == INCORRECT, (garbage, fb)
+
+
+# ---------------------------------------------------------------------------
+# Exercise 2: measure one axis only
+# ---------------------------------------------------------------------------
+
+C_ONE = np.array([[1.0, 0.0, 0.0, 0.0]])
+
+
+def sigma(steps):
+    """Section 11: the covariance without measurements, Sigma_{t+1} = A Sigma_t A^T + G Q G^T."""
+    S = np.eye(4)
+    for _ in range(steps):
+        S = A @ S @ A.T + GQG
+    return S
+
+
+VAR_2 = sigma(99)[2, 2]          # nothing measures x^2: the filter's variance is Sigma_99's
+ONE_AXIS = plain_filter(A, C_ONE, GQG, np.eye(1), np.zeros(4), np.eye(4), np.zeros((100, 1)))[1]
+
+
+def test_exercise_2_reference_by_hand():
+    # the rows C A^k are [1, k-ish, 0, 0]: two independent ones, zeros in the x^2 columns
+    obs = np.vstack([C_ONE @ np.linalg.matrix_power(A, k) for k in range(4)])
+    assert np.all(obs[:, 2:] == 0) and np.linalg.matrix_rank(obs) == 2
+    np.testing.assert_allclose(ONE_AXIS[-1, 2, 2], VAR_2, rtol=1e-10)
+    correct(ch03.exercise_2(2, "no", VAR_2))
+    correct(ch03.exercise_2(np.int64(2), "NO", round(VAR_2)))
+    correct(ch03.exercise_2(2.0, "no", np.float32(VAR_2)))
+
+
+@pytest.mark.parametrize("variance, phrases", [
+    (np.sqrt(VAR_2), ["standard deviation", "square"]),
+    (sigma(98)[2, 2], ["t = 98", "covs[-1]"]),
+    (sigma(100)[2, 2], ["t = 100"]),
+    (ONE_AXIS[-1, 0, 0], ["a position the sensor measures"]),
+    (ONE_AXIS[-1, 3, 3], ["velocity x2_dot"]),
+    (ONE_AXIS[-1, 1, 1], ["x1_dot", "by name"]),
+    (1.0, ["prior variance"]),
+    (2 * VAR_2, ["simple factor"]),
+])
+def test_exercise_2_diagnoses_the_variance(variance, phrases):
+    fb = ch03.exercise_2(2, "no", variance)
+    wrong(fb, "var_2", *phrases)
+    hides(fb, VAR_2)
+
+
+@pytest.mark.parametrize("rank, phrases", [
+    (4, ["full rank", "which columns stay zero"]),
+    (1, ["rank of C alone"]),
+    (8, ["between 0 and 4"]),
+    (3, ["np.linalg.matrix_rank"]),
+    (2.5, ["whole number"]),
+    ("2", ["single number"]),
+])
+def test_exercise_2_diagnoses_the_rank(rank, phrases):
+    wrong(ch03.exercise_2(rank, "no", VAR_2), "rank_2", *phrases)
+
+
+def test_exercise_2_the_choice():
+    fb = ch03.exercise_2(2, "yes", VAR_2)
+    wrong(fb, "detectable_2 is not the right option", "|lambda| >= 1")
+    assert "rank_2: correct." in fb.message and "var_2: correct." in fb.message
+
+
+def test_exercise_2_not_attempted_and_garbage():
+    not_attempted(ch03.exercise_2(None, None, None))
+    for garbage in GARBAGE:
+        assert ch03.exercise_2(garbage, garbage, garbage).status == INCORRECT, garbage
+
+
+# ---------------------------------------------------------------------------
+# Exercise 3: NEES and NIS as a function
+# ---------------------------------------------------------------------------
+
+def by_loop(diffs, covs):
+    return np.array([d @ inv(P) @ d for d, P in zip(diffs, covs)])
+
+
+def test_exercise_3_accepts_a_loop_and_a_solve():
+    correct(ch03.exercise_3(by_loop))
+    correct(ch03.exercise_3(lambda d, P: np.einsum("ti,tij,tj->t", d, inv(P), d)))
+    correct(ch03.exercise_3(lambda d, P: [float(x) for x in by_loop(d, P)]))
+
+
+def test_exercise_3_inputs_are_copied():
+    def spoils_its_input(diffs, covs):
+        out = by_loop(diffs, covs)
+        covs[...] = 0.0
+        return out
+    correct(ch03.exercise_3(spoils_its_input))
+
+
+@pytest.mark.parametrize("fun, phrases", [
+    (lambda d, P: np.einsum("ti,tij,tj->t", d, P, d), ["test input 1", "multiply by P_t"]),
+    (lambda d, P: np.sum(d ** 2 / np.diagonal(P, axis1=1, axis2=2), axis=1),
+     ["test input 1", "variances only", "correlations"]),
+    (lambda d, P: np.sqrt(by_loop(d, P)), ["square root"]),
+    (lambda d, P: by_loop(d, P) / d.shape[1], ["divide by the dimension n"]),
+    (lambda d, P: np.sum(d ** 2, axis=1), ["ignores the covariance"]),
+    (lambda d, P: np.array([d_t @ inv(P[0]) @ d_t for d_t in d]), ["first covariance"]),
+    (lambda d, P: by_loop(d, P).mean(), ["single number", "shape (5,)"]),
+    (lambda d, P: d @ inv(P) @ d.T, ["pairs every step with every other"]),
+    (lambda d, P: by_loop(d, P)[:-1], ["wrong shape"]),
+    (lambda d, P: (by_loop(d, P) if len(d) > 1 else 2 * by_loop(d, P)), ["test input 4"]),
+])
+def test_exercise_3_diagnoses(fun, phrases):
+    fb = ch03.exercise_3(fun)
+    wrong(fb, *phrases)
+    hides(fb, *[by_loop(d, P) for _, d, P in ch03._nees_cases()])
+
+
+def test_exercise_3_hints_on_failures():
+    wrong(ch03.exercise_3(lambda d, P: d.T @ inv(P)), "fails on test input 1", "Hint",
+          "for each t")
+    wrong(ch03.exercise_3(lambda d, P: None), "forget `return`")
+    wrong(ch03.exercise_3(lambda d, P: 1 / 0), "ZeroDivisionError")
+
+
+def test_exercise_3_not_attempted_and_garbage():
+    not_attempted(ch03.exercise_3(None))
+    fb = ch03.exercise_3(not_implemented)
+    not_attempted(fb)
+    assert "still raises NotImplementedError" in fb.message
+    for garbage in [3, "normalised_squared", np.eye(2), lambda d: d, lambda d, P: "eps",
+                    lambda d, P: {"e": 1}, lambda d, P: np.full(len(d), np.nan),
+                    lambda d, P: [[1.0], [2.0, 3.0]], lambda d, P: np.full(len(d), 1e308),
+                    lambda d, P: np.ones(len(d), complex)]:
+        fb = ch03.exercise_3(garbage)
+        assert fb.status == INCORRECT, fb
+
+
+# ---------------------------------------------------------------------------
+# Exercise 4: the length of a gap
+# ---------------------------------------------------------------------------
+
+def gap_covs(length, fill=np.nan, start=40):
+    ys = np.zeros((100, 2))
+    ys[start:start + length] = fill
+    return plain_filter(A, C, GQG, np.eye(2), np.zeros(4), np.eye(4), ys)[1]
+
+
+def end_of_gap(length):
+    return float(gap_covs(length)[39 + length, 0, 0])
+
+
+SLOPE = np.log(end_of_gap(20) / end_of_gap(10)) / np.log(2)
+
+
+def test_exercise_4_accepts_the_written_out_filter():
+    # the variance grows through the gap, faster than the length
+    assert end_of_gap(1) < end_of_gap(10) < end_of_gap(20) and 2 < SLOPE < 3
+    assert abs(np.sqrt(end_of_gap(20)) - 5.8) < 0.05            # section 8 prints 5.8 m
+    correct(ch03.exercise_4(end_of_gap, SLOPE))
+    correct(ch03.exercise_4(lambda L: np.array([end_of_gap(L)]), round(SLOPE, 2)))
+    # a gap that starts one step late is (to 1e-6) the same: the filter is at its steady state
+    correct(ch03.exercise_4(lambda L: float(gap_covs(L, start=41)[40 + L, 0, 0]) if L < 60
+                            else end_of_gap(L), SLOPE))
+
+
+@pytest.mark.parametrize("fun, phrases", [
+    (lambda L: np.sqrt(end_of_gap(L)), ["test input 1 (length = 10)", "standard deviation"]),
+    (lambda L: float(gap_covs(L)[40 + L, 0, 0]), ["first step after the gap"]),
+    (lambda L: float(gap_covs(L)[38 + L, 0, 0]), ["t = 38 + length"]),
+    (lambda L: float(gap_covs(L + 1)[40 + L, 0, 0]), ["length + 1"]),
+    (lambda L: float(gap_covs(L)[39 + L, 1, 1]), ["velocity x1_dot"]),
+    (lambda L: end_of_gap(20), ["test input 1 (length = 10)", "section 8's gap of 20 steps"]),
+    (lambda L: float(gap_covs(L, fill=0.0)[39 + L, 0, 0]), ["did not grow", "not of zeros"]),
+    (lambda L: gap_covs(L)[39 + L], ["whole covariance"]),
+    (lambda L: gap_covs(L)[:, 0, 0], ["return one number"]),
+])
+def test_exercise_4_diagnoses_the_function(fun, phrases):
+    fb = ch03.exercise_4(fun, SLOPE)
+    wrong(fb, *phrases)
+    assert "slope_4: correct." in fb.message
+    hides(fb, [end_of_gap(L) for L in ch03.GAP_LENGTHS], SLOPE)
+
+
+def test_exercise_4_hints_on_failures():
+    def indexed_beyond_the_run(L):
+        return [end_of_gap(L)][L - 60] if L == 60 else end_of_gap(L)
+
+    def half_missing(L):
+        ys = np.zeros((100, 2))
+        ys[40:40 + L, 0] = np.nan
+        return bf.kalman.kalman_filter(bf.models.damped_particle(), ys).covs[39 + L, 0, 0]
+
+    def out_of_range(L):
+        return float(gap_covs(L)[40 + L, 0, 0]) if L < 60 else gap_covs(L)[100]
+
+    wrong(ch03.exercise_4(half_missing, SLOPE), "partly NaN", "both components")
+    wrong(ch03.exercise_4(out_of_range, SLOPE), "first step after the gap")
+    fb = ch03.exercise_4(lambda L: end_of_gap(L) if L < 60 else gap_covs(L)[100], SLOPE)
+    wrong(fb, "test input 7 (length = 60)", "IndexError", "t = 99 for length = 60")
+    correct(ch03.exercise_4(indexed_beyond_the_run, SLOPE))
+
+
+@pytest.mark.parametrize("slope, phrases", [
+    (SLOPE / 2, ["standard deviation"]),
+    (np.log(gap_covs(20)[60, 0, 0] / gap_covs(10)[50, 0, 0]) / np.log(2), ["after the gap"]),
+    ((end_of_gap(20) - end_of_gap(10)) / 10, ["variance itself"]),
+    (np.log(end_of_gap(20) / end_of_gap(10)) / 10, ["not of the length"]),
+    (np.log10(end_of_gap(20) / end_of_gap(10)) / np.log(2), ["mixed two logarithms"]),
+    (np.log(end_of_gap(20) / end_of_gap(10)) / np.log10(2), ["mixed two logarithms"]),
+    (1 / SLOPE, ["other way round"]),
+    (3.0, ["too large"]),
+])
+def test_exercise_4_diagnoses_the_slope(slope, phrases):
+    fb = ch03.exercise_4(end_of_gap, slope)
+    wrong(fb, "slope_4", *phrases)
+    assert "end_of_gap_variance: correct." in fb.message
+    hides(fb, SLOPE)
+
+
+def test_exercise_4_not_attempted_and_garbage():
+    not_attempted(ch03.exercise_4(None, None))
+    fb = ch03.exercise_4(not_implemented, None)
+    not_attempted(fb)
+    assert "end_of_gap_variance still raises NotImplementedError" in fb.message
+    for garbage in GARBAGE + [lambda L: "v", lambda L: None, lambda: 1.0, lambda L: [1.0, 2.0]]:
+        assert ch03.exercise_4(garbage, garbage).status == INCORRECT, garbage
+
+
+# ---------------------------------------------------------------------------
+# Exercise 5: whiteness of the other wrong models
+# ---------------------------------------------------------------------------
+
+YS_LONG = bf.models.simulate(bf.models.damped_particle(), 1000, np.random.default_rng(5)).ys
+
+
+def lags(q_var, r_var, ys=YS_LONG, max_lag=2, normalise=True):
+    """Lags 1..max_lag of z_t = L_t^{-1} r_t, by the formula of section 6."""
+    _, _, r, S = plain_filter(A, C, G @ (q_var * np.eye(2)) @ G.T, r_var * np.eye(2),
+                              np.zeros(4), np.eye(4), ys)
+    z = np.array([np.linalg.solve(np.linalg.cholesky(S_t), r_t) for r_t, S_t in zip(r, S)]) \
+        if normalise else r
+    d = z - z.mean(axis=0)
+    return np.array([np.sum(d[:-k] * d[k:], axis=0) for k in range(1, max_lag + 1)]) \
+        / np.sum(d * d, axis=0)
+
+
+ROWS = [(0.1, 1.0), (0.01, 0.1), (0.01, 10.0)]          # Q x10, R x0.1, R x10
+LAGS = np.array([lags(q, r) for q, r in ROWS])           # (3, 2 lags, 2 components)
+LAG1 = LAGS[:, 0]
+
+
+def test_exercise_5_accepts_the_formula():
+    # Q x10 and R x0.1 share Q / R: the same gain, the same z_t after the first steps
+    assert np.abs(LAG1[0] - LAG1[1]).max() < 1e-3
+    assert np.all(LAG1[:2] < -0.062) and np.all(LAG1[2] > 0.062)
+    correct(ch03.exercise_5(LAG1, "ratio"))
+    correct(ch03.exercise_5(np.round(LAG1, 3).tolist(), " Ratio"))
+    correct(ch03.exercise_5(LAG1[[1, 0, 2]], "ratio"))      # the first two rows agree
+
+
+@pytest.mark.parametrize("answer, phrases", [
+    (LAG1[[2, 0, 1]], ["another order"]),
+    (np.ones((3, 2)), ["lag 0"]),
+    (LAGS[:, 1], ["lag 2"]),
+    (np.vstack([LAG1[:2], lags(0.001, 1.0)[0]]), ["row 3", "R ×10", "Q ×0.1"]),
+    (np.vstack([LAG1[:2], LAG1[0]]), ["row 3", "Q ×10 or R ×0.1", "force_var / meas_var"]),
+    (np.vstack([lags(0.01, 1.0)[0], LAG1[1:]]), ["row 1", "the correct model"]),
+    (np.array([lags(q, r, ys=bf.models.simulate(bf.models.damped_particle(), 1000,
+                                                 np.random.default_rng(6)).ys)[0]
+               for q, r in ROWS]), ["another record", "seed 5"]),
+    (LAG1.T, ["transposed"]),
+    (LAG1[:, 0], ["shape (3, 2)"]),
+    (np.zeros((20, 2)), ["lag 1 only"]),
+    (-LAG1, ["wrong sign"]),
+])
+def test_exercise_5_diagnoses_the_autocorrelations(answer, phrases):
+    fb = ch03.exercise_5(answer, "ratio")
+    wrong(fb, *phrases)
+    assert "sees_5: correct." in fb.message
+    hides(fb, LAG1)
+
+
+def test_exercise_5_raw_innovations_are_close_enough():
+    """S_t is diagonal here and settles within a few steps, so r_t and z_t agree to 2e-3."""
+    raw = np.array([lags(q, r, normalise=False)[0] for q, r in ROWS])
+    assert np.abs(raw - LAG1).max() < ch03.ATOL_5
+    correct(ch03.exercise_5(raw, "ratio"))
+
+
+@pytest.mark.parametrize("sees, phrases", [
+    ("scale", ["not the right option", "same Q / R"]),
+    ("neither", ["not the right option"]),
+    ("gain", ["must be one of ['ratio', 'scale', 'neither']"]),
+])
+def test_exercise_5_the_choice(sees, phrases):
+    wrong(ch03.exercise_5(LAG1, sees), *phrases)
+
+
+def test_exercise_5_not_attempted_and_garbage():
+    not_attempted(ch03.exercise_5(None, None))
+    fb = ch03.exercise_5(LAG1, None)
+    assert fb.status == NOT_ATTEMPTED and "lag1_5: correct." in fb.message
+    for garbage in GARBAGE:
+        assert ch03.exercise_5(garbage, garbage).status == INCORRECT, garbage
