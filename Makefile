@@ -3,6 +3,7 @@
 #   make test       unit tests + every notebook under strict nbval
 #   make notebooks  re-execute and save every notebook (after an edit)
 #   make bench      benchmarks against filterpy (and particles, if its venv exists)
+#   make student    write the student edition of every chapter into student/
 VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
@@ -13,7 +14,7 @@ $(BIN)/.installed: requirements.txt pyproject.toml
 	$(BIN)/pip install -r requirements.txt
 	touch $@
 
-.PHONY: lab test notebooks bench
+.PHONY: lab test notebooks bench student
 lab: $(BIN)/.installed
 	$(BIN)/jupyter lab notebooks/
 
@@ -27,3 +28,6 @@ bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/bench_kalman.py
 	$(BIN)/python benchmarks/bench_resampling.py
 	$(BIN)/python benchmarks/bench_particle.py
+
+student: $(BIN)/.installed
+	$(BIN)/python tools/make_student_edition.py student/ --force

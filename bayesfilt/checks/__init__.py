@@ -33,6 +33,7 @@ from __future__ import annotations
 import copy
 import importlib
 import numbers
+import re
 from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
@@ -71,6 +72,11 @@ def _not_attempted(what: str) -> Feedback:
                                    f"and run it, then run this check again.")
 
 
+def _not_written(what: str) -> Feedback:
+    return Feedback(NOT_ATTEMPTED, f"{what} still raises NotImplementedError; write its body in "
+                                   f"the cell above and run it, then run this check again.")
+
+
 def _wrong(message: str) -> Feedback:
     return Feedback(INCORRECT, message)
 
@@ -81,6 +87,8 @@ def _as_numbers(answer, what: str):
         a = np.asarray(answer)
     except ValueError:
         return None, _wrong(f"{what} must be a rectangular array of numbers (not a ragged list).")
+    except Exception:  # noqa: BLE001 - an object numpy cannot read is feedback, not a crash
+        return None, _wrong(f"{what} must be an array of numbers, got {type(answer).__name__}.")
     if a.dtype.kind not in "iuf":
         kind = {"b": "booleans", "c": "complex numbers", "U": "text", "O": "a mixed object"}
         return None, _wrong(f"{what} must be made of real numbers, got "
@@ -133,13 +141,19 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
                       f"y - C x rather than C x - y).")
     if a.ndim == 2 and a.shape[0] == a.shape[1] and np.allclose(a.T, e, rtol=rtol, atol=atol):
         return _wrong(f"{what} is transposed.")
+    if probability and np.any(a < 0):
+        return _wrong(f"{what} must be a probability vector, but it has a negative entry "
+                      f"(a probability is never below 0).")
     scale = _common_factor(a, e)
     if scale is not None:
         if probability and not np.isclose(a.sum(), 1.0):
             return _wrong(f"{what} is not normalised: its entries sum to {a.sum():.4g}, not 1 "
                           f"(divide by the normalising constant).")
-        return _wrong(f"{what} is off by a constant factor (a normalising constant, or a "
-                      f"factor such as 1/2 or 2 pi, missing or extra).")
+        # With one nonzero reference entry every wrong value is "a factor" of it: name a
+        # factor only when the evidence is real (two entries or more) or the factor simple.
+        if np.count_nonzero(e) >= 2 or _is_simple_factor(scale):
+            return _wrong(f"{what} is off by a constant factor (a normalising constant, or a "
+                          f"factor such as 1/2 or 2 pi, missing or extra).")
     if probability and not np.isclose(a.sum(), 1.0):
         return _wrong(f"{what} must be a probability vector: its entries sum to {a.sum():.4g}.")
     if a.ndim == 2 and a.shape[0] == a.shape[1] and np.allclose(e, e.T) and not np.allclose(a, a.T):
@@ -149,6 +163,11 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
     where = tuple(int(i) for i in np.argwhere(wrong)[0])
     return _wrong(f"{what} has the right shape but {int(wrong.sum())} of {a.size} entries "
                   f"differ from the reference (the first at index {where}).")
+
+
+def _is_simple_factor(ratio: float) -> bool:
+    """Is ``ratio`` 2, 1/2, 2 pi or 1/(2 pi) (or minus one of them)?"""
+    return any(np.isclose(abs(ratio), r, rtol=1e-6) for r in (2.0, 0.5, 2 * np.pi, 1 / (2 * np.pi)))
 
 
 def _common_factor(a: np.ndarray, e: np.ndarray) -> float | None:
@@ -171,7 +190,10 @@ def compare_number(answer, expected: float, what: str = "your answer", rtol: flo
         answer = answer.item()
     if isinstance(answer, (bool, np.bool_)) or not isinstance(answer, numbers.Real):
         return _wrong(f"{what} must be a single number, got {type(answer).__name__}.")
-    a, e = float(answer), float(expected)
+    try:
+        a, e = float(answer), float(expected)
+    except (OverflowError, ValueError, TypeError):
+        return _wrong(f"{what} must be a finite number of ordinary size.")
     if not np.isfinite(a):
         return _wrong(f"{what} is NaN or inf.")
     if np.isclose(a, e, rtol=rtol, atol=atol):
@@ -180,7 +202,7 @@ def compare_number(answer, expected: float, what: str = "your answer", rtol: flo
         return _wrong(f"{what} has the wrong sign.")
     if e != 0 and a != 0 and _common_factor(np.array([a]), np.array([e])) is not None:
         ratio = a / e
-        if any(np.isclose(ratio, r, rtol=1e-6) for r in (2.0, 0.5, 2 * np.pi, 1 / (2 * np.pi))):
+        if ratio > 0 and _is_simple_factor(ratio):
             return _wrong(f"{what} is off by a simple factor (2, 1/2 or 2 pi?).")
     return _wrong(f"{what} is too {'large' if a > e else 'small'}.")
 
@@ -211,7 +233,7 @@ def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str
         try:
             out = fun(*copy.deepcopy(args))
         except NotImplementedError:
-            return _not_attempted(what)
+            return _not_written(what)
         except Exception as exc:  # noqa: BLE001 - any failure is feedback, not a crash
             return _wrong(f"{what} fails on test input {k + 1} ({shown}): "
                           f"{type(exc).__name__}: {exc}")
@@ -226,9 +248,20 @@ def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str
 
 
 def _describe_args(args: tuple) -> str:
+    """The test inputs as a student can read them: small arrays in full, others by shape or type.
+
+    Only numbers, arrays and plain lists/tuples are read as arrays; anything else (a model, a
+    named tuple of arrays of different shapes, a function) is named by its type, so that
+    describing an input can never fail.
+    """
     parts = []
     for a in args:
-        arr = np.asarray(a) if not callable(a) else None
+        arr = None
+        if isinstance(a, (numbers.Number, np.ndarray, np.generic)) or type(a) in (list, tuple):
+            try:
+                arr = np.asarray(a)
+            except Exception:  # noqa: BLE001 - a ragged list is described by its type
+                arr = None
         if arr is not None and arr.dtype.kind in "iuf" and arr.size <= 6:
             parts.append(np.array2string(arr, precision=3, separator=", "))
         elif arr is not None and arr.dtype.kind in "iuf":
@@ -252,8 +285,22 @@ def compare_choice(answer, expected: str, options: Sequence[str], what: str = "y
 
 
 def __getattr__(name: str):
-    if name in _CHAPTERS:
-        module = importlib.import_module(f".{name}", __name__)
+    if name in _CHAPTERS or re.fullmatch(r"ch\d\d", name):
+        try:
+            module = importlib.import_module(f".{name}", __name__)
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise  # the chapter module exists but an import inside it fails: show that
+            # No checks for this chapter (yet): an AttributeError, so hasattr() is False.
+            raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r} "
+                                 f"(there is no bayesfilt/checks/{name}.py)") from None
         globals()[name] = module
         return module
     raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r}")
+
+
+def __dir__():
+    import pkgutil
+
+    chapters = {m.name for m in pkgutil.iter_modules(__path__) if re.fullmatch(r"ch\d\d", m.name)}
+    return sorted(set(globals()) | chapters)

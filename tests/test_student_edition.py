@@ -1,0 +1,590 @@
+"""Tests of the exercise pattern and of the student edition (``tools/make_student_edition.py``).
+
+Three groups:
+
+* the pattern, in every chapter notebook: solution markers that pair up in
+  one cell, every answer cell followed by its check cell, every
+  ``### Exercise N`` heading with its kind line and its answer cell, check
+  cells that show "Correct" in the repository, and at least three exercises
+  per chapter;
+* the edition made from the real chapters: no solution code left, every
+  other cell unchanged, and every student notebook runs top to bottom with
+  each check saying "Not attempted yet" (slow: it executes every chapter);
+* the tool itself, on small synthetic cells and notebooks: the stubs, the
+  errors on malformed markers, the refusals (a non-empty folder without
+  ``--force``; the course's ``notebooks/`` folder, also through a relative
+  path or a symbolic link) and byte-identical output from run to run.
+
+The references are independent of the tool where it matters: the stubs are
+compared with hand-written expected text, and the solution lines are found
+by a scanner written here, not by the tool's parser.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import os
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import nbformat
+import pytest
+from nbclient import NotebookClient
+from nbclient.exceptions import CellExecutionError
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = ROOT / "notebooks"
+TOOL = ROOT / "tools" / "make_student_edition.py"
+CHAPTERS = sorted(NOTEBOOKS.glob("[0-9][0-9]_*.ipynb"))
+
+BEGIN, END = "### BEGIN SOLUTION", "### END SOLUTION"
+CHECK_CALL = re.compile(r"\bbf\.checks\.")
+EXERCISE_HEADING = re.compile(r"^###\s+Exercise\s+(\d+)\b")
+KIND_LINE = re.compile(r"^\*Kind:\s*[^·*]+·\s*about\s+\d+(?:\s*-\s*\d+)?\s*min\s*·\s*(lab|homework)\s*\*$")
+
+
+def _load_tool():
+    spec = importlib.util.spec_from_file_location("_make_student_edition", TOOL)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+mse = _load_tool()
+
+
+def _read(path: Path):
+    return nbformat.read(path, as_version=4)
+
+
+def _chapter(path: Path) -> str:
+    return path.name[:2]
+
+
+def _marker_lines(source: str) -> list[tuple[int, str]]:
+    """(line index, stripped line) of every line that mentions a solution marker."""
+    return [(k, line.strip()) for k, line in enumerate(source.splitlines())
+            if "BEGIN SOLUTION" in line or "END SOLUTION" in line]
+
+
+def _is_answer_cell(cell) -> bool:
+    return cell.cell_type == "code" and any(m == BEGIN for _, m in _marker_lines(cell.source))
+
+
+def _solution_blocks(source: str) -> list[list[str]]:
+    """The lines between each BEGIN/END pair (a scanner independent of the tool)."""
+    blocks, current = [], None
+    for line in source.splitlines():
+        if line.strip() == BEGIN:
+            current = []
+        elif line.strip() == END:
+            blocks.append(current)
+            current = None
+        elif current is not None:
+            current.append(line)
+    return blocks
+
+
+def _exempt_lines(block: list[str]) -> set[int]:
+    """Indices of the lines of a solution block a stub keeps: def signatures and docstrings."""
+    code = textwrap.dedent("\n".join(block))
+    exempt = set()
+    for node in ast.parse(code).body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            first = node.decorator_list[0].lineno if node.decorator_list else node.lineno
+            body = node.body[0]
+            exempt.update(range(first - 1, max(body.lineno - 1, node.lineno)))
+            if isinstance(body, ast.Expr) and isinstance(body.value, ast.Constant) \
+                    and isinstance(body.value.value, str):
+                exempt.update(range(body.lineno - 1, body.end_lineno))
+    return exempt
+
+
+def _outputs_text(cell) -> str:
+    parts = []
+    for out in cell.get("outputs", []):
+        if out.get("output_type") == "stream":
+            parts.append(out.get("text", ""))
+        elif "data" in out:
+            parts.append(out["data"].get("text/plain", ""))
+        elif out.get("output_type") == "error":
+            parts.append(f"{out.get('ename')}: {out.get('evalue')}")
+    return "".join(parts)
+
+
+def _exercise_headings(nb) -> list[tuple[int, int, list[str]]]:
+    """(cell index, exercise number, lines after the heading) of every ``### Exercise N``."""
+    found = []
+    for index, cell in enumerate(nb.cells):
+        if cell.cell_type != "markdown":
+            continue
+        lines = cell.source.splitlines()
+        for k, line in enumerate(lines):
+            match = EXERCISE_HEADING.match(line.strip())
+            if match:
+                found.append((index, int(match.group(1)), [x.strip() for x in lines[k + 1:] if x.strip()]))
+    return found
+
+
+def _exercise_of(nb, index: int) -> int | None:
+    """The number of the last ``### Exercise N`` heading above cell ``index``."""
+    numbers = [n for i, n, _ in _exercise_headings(nb) if i < index]
+    return numbers[-1] if numbers else None
+
+
+# --- the pattern, in every chapter --------------------------------------------------------
+
+@pytest.fixture(params=CHAPTERS, ids=[p.name for p in CHAPTERS])
+def chapter(request):
+    return request.param
+
+
+def test_there_are_chapter_notebooks():
+    assert len(CHAPTERS) >= 5, f"expected the chapter notebooks in {NOTEBOOKS}, found {CHAPTERS}"
+
+
+def test_solution_markers_pair_up_in_each_cell(chapter):
+    for index, cell in enumerate(_read(chapter).cells):
+        markers = _marker_lines(cell.source)
+        where = f"{chapter.name} cell {index + 1}"
+        if cell.cell_type != "code":
+            assert not markers, f"{where}: solution markers belong in code cells only"
+            continue
+        for k, marker in markers:
+            assert marker in (BEGIN, END), f"{where} line {k + 1}: marker not alone on its line: {marker!r}"
+        kinds = [m for _, m in markers]
+        assert kinds == [BEGIN, END] * (len(kinds) // 2) and len(kinds) % 2 == 0, (
+            f"{where}: every {BEGIN!r} needs its {END!r} after it, in the same cell, unnested; "
+            f"found {kinds}")
+
+
+def test_every_answer_cell_is_followed_by_its_check_cell(chapter):
+    nb = _read(chapter)
+    for index, cell in enumerate(nb.cells):
+        if not _is_answer_cell(cell):
+            continue
+        where = f"{chapter.name} cell {index + 1}"
+        assert not CHECK_CALL.search(cell.source), f"{where}: the check belongs in the next cell"
+        assert index + 1 < len(nb.cells), f"{where}: an answer cell needs a check cell after it"
+        check = nb.cells[index + 1]
+        assert check.cell_type == "code" and CHECK_CALL.search(check.source), (
+            f"{where}: the answer cell must be followed by a check cell calling bf.checks.")
+        assert not _marker_lines(check.source), f"{where}: the check cell holds a solution"
+        last = check.source.strip().splitlines()[-1]
+        number = _exercise_of(nb, index)
+        call = re.match(rf"bf\.checks\.ch{_chapter(chapter)}\.exercise_(\d+)\(", last)
+        assert call, (f"{where}: the check cell must end with a call "
+                      f"bf.checks.ch{_chapter(chapter)}.exercise_N(...), got {last!r}")
+        assert number is not None and int(call.group(1)) == number, (
+            f"{where}: the check {last!r} does not match the heading ### Exercise {number} above it")
+
+
+def test_every_exercise_heading_has_its_kind_line_and_an_answer_cell(chapter):
+    nb = _read(chapter)
+    headings = _exercise_headings(nb)
+    numbers = [n for _, n, _ in headings]
+    assert numbers == list(range(1, len(numbers) + 1)), (
+        f"{chapter.name}: exercises must be numbered 1, 2, ... in order, found {numbers}")
+    bounds = [i for i, _, _ in headings] + [len(nb.cells)]
+    for (index, number, rest), stop in zip(headings, bounds[1:]):
+        where = f"{chapter.name} ### Exercise {number}"
+        assert rest and KIND_LINE.match(rest[0]), (
+            f"{where}: the heading must be followed by the line "
+            f"'*Kind: derivation | function | experiment · about 10 min · lab|homework*', "
+            f"got {rest[0] if rest else None!r}")
+        answers = [c for c in nb.cells[index + 1:stop] if _is_answer_cell(c)]
+        assert answers, f"{where}: no answer cell ({BEGIN} ... {END}) before the next exercise"
+
+
+def test_check_cells_say_correct_in_the_repository(chapter):
+    """nbval compares these outputs with a fresh run; here: what they say is "Correct"."""
+    for index, cell in enumerate(_read(chapter).cells):
+        if cell.cell_type == "code" and CHECK_CALL.search(cell.source):
+            text = _outputs_text(cell)
+            assert text.startswith("Correct"), (
+                f"{chapter.name} cell {index + 1}: the check of the reference solution must say "
+                f"'Correct: ...', got {text[:200]!r}")
+
+
+def test_every_chapter_has_at_least_three_exercises(chapter):
+    nb = _read(chapter)
+    numbers = [n for _, n, _ in _exercise_headings(nb)]
+    answers = sum(1 for c in nb.cells if _is_answer_cell(c))
+    assert len(numbers) >= 3 and answers >= 3, (
+        f"{chapter.name}: {len(numbers)} '### Exercise N' headings and {answers} answer cells; "
+        f"every chapter ends with 3-5 exercises in the pattern of CONTRIBUTING.md")
+
+
+# --- the edition made from the real chapters -----------------------------------------------
+
+@pytest.fixture(scope="module")
+def edition(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("student") / "student"
+    written = mse.make_student_edition(out)
+    assert sorted(p.name for p in written) == [p.name for p in CHAPTERS]
+    return out
+
+
+def test_student_edition_contains_no_solution_code(edition):
+    for path in CHAPTERS:
+        source = _read(path)
+        student = _read(edition / path.name)
+        elsewhere, solution = set(), set()
+        for cell in source.cells:
+            blocks = _solution_blocks(cell.source) if cell.cell_type == "code" else []
+            inside = set()
+            for block in blocks:
+                exempt = _exempt_lines(block)
+                inside.update(line.strip() for line in block)
+                solution.update(line.strip() for k, line in enumerate(block)
+                                if k not in exempt and re.search(r"\w", line)
+                                and not line.strip().startswith("#"))
+            elsewhere.update(line.strip() for line in cell.source.splitlines()
+                             if line.strip() not in inside or not blocks)
+        # A solution line that also stands outside every solution block (a given matrix, a
+        # `return x`) may stay; every other one must be gone from the student notebook.
+        secret = solution - elsewhere
+        for index, cell in enumerate(student.cells):
+            assert not _marker_lines(cell.source), f"{path.name} cell {index + 1}: markers left"
+            leaked = secret & {line.strip() for line in cell.source.splitlines()}
+            assert not leaked, f"{path.name} cell {index + 1}: solution code left: {sorted(leaked)}"
+            if _is_answer_cell(source.cells[index]) or CHECK_CALL.search(cell.source):
+                assert cell.outputs == [] and cell.execution_count is None, (
+                    f"{path.name} cell {index + 1}: outputs of answer and check cells are cleared")
+
+
+def test_student_edition_keeps_everything_else(edition):
+    for path in CHAPTERS:
+        source, student = _read(path), _read(edition / path.name)
+        assert student.metadata == source.metadata
+        assert len(student.cells) == len(source.cells), path.name
+        changed = 0
+        for index, (a, b) in enumerate(zip(source.cells, student.cells)):
+            if _is_answer_cell(a) or (a.cell_type == "code" and CHECK_CALL.search(a.source)):
+                changed += 1
+                assert (b.cell_type, b.get("id"), b.metadata) == (a.cell_type, a.get("id"), a.metadata)
+                if not _is_answer_cell(a):
+                    assert b.source == a.source, f"{path.name} cell {index + 1}: a check cell is kept"
+                continue
+            assert b == a, f"{path.name} cell {index + 1} changed in the student edition"
+        if not changed:
+            assert (edition / path.name).read_bytes() == path.read_bytes(), (
+                f"{path.name} has no exercises and must be copied byte for byte")
+
+
+def test_student_edition_runs_and_every_check_says_not_attempted(edition):
+    """Execute every student notebook once (about a minute), as a student's "Run All"."""
+    failures = []
+    for path in sorted(edition.glob("*.ipynb")):
+        nb = _read(path)
+        client = NotebookClient(nb, timeout=300, kernel_name="python3",
+                                resources={"metadata": {"path": str(edition)}})
+        try:
+            client.execute()
+        except CellExecutionError as exc:
+            failures.append(f"{path.name}: {str(exc).strip().splitlines()[-1]}")
+            continue
+        for index, cell in enumerate(nb.cells):
+            if cell.cell_type == "code" and CHECK_CALL.search(cell.source):
+                text = _outputs_text(cell)
+                if "Not attempted yet" not in text:
+                    failures.append(f"{path.name} cell {index + 1}: the check says {text[:200]!r}, "
+                                    f"not 'Not attempted yet'")
+    assert not failures, "the student edition must run top to bottom:\n" + "\n".join(failures)
+
+
+# --- the tool on synthetic cells ----------------------------------------------------------
+
+def test_a_function_keeps_its_signature_and_docstring():
+    source = textwrap.dedent('''\
+        # Exercise 2: your answer
+        ### BEGIN SOLUTION
+        def kalman_gain(P, C,
+                        R):  # K = P C^T S^-1
+            """The Kalman gain.
+
+            K = P C^T (C P C^T + R)^{-1}
+            """
+            S = C @ P @ C.T + R
+            return P @ C.T @ np.linalg.inv(S)
+        ### END SOLUTION''')
+    assert mse.student_source(source, 2) == textwrap.dedent('''\
+        # Exercise 2: your answer
+        def kalman_gain(P, C,
+                        R):
+            """The Kalman gain.
+
+            K = P C^T (C P C^T + R)^{-1}
+            """
+            raise NotImplementedError("Exercise 2: write this function")''')
+
+
+def test_assignments_become_none_once_each_in_order():
+    source = textwrap.dedent('''\
+        ### BEGIN SOLUTION
+        answer_1 = np.array([0.2, 0.8])
+        loglik, (mean, *rest) = -3.5, (1.0, 2.0, 3.0)
+        answer_1 = answer_1 / answer_1.sum()
+        ratio: float = 0.5
+        ratio *= 2
+        ### END SOLUTION
+        ''')
+    assert mse.student_source(source, 1) == (
+        "answer_1 = None  # your answer\nloglik = None  # your answer\nmean = None  # your answer\n"
+        "rest = None  # your answer\nratio = None  # your answer\n")
+
+
+def test_code_outside_the_markers_is_kept():
+    source = ("rng = np.random.default_rng(7)\nA = np.eye(2)\n### BEGIN SOLUTION\n"
+              "answer_3 = A @ A\n### END SOLUTION\nprint(A)\n### BEGIN SOLUTION\n"
+              "def f(x): return 2 * x\n### END SOLUTION")
+    assert mse.student_source(source, 3) == (
+        "rng = np.random.default_rng(7)\nA = np.eye(2)\nanswer_3 = None  # your answer\nprint(A)\n"
+        "def f(x):\n    raise NotImplementedError(\"Exercise 3: write this function\")")
+
+
+def test_a_function_and_an_answer_are_separated_as_pep8_has_it():
+    source = ("### BEGIN SOLUTION\ndef helper(seed):\n    return seed + 1\n\n\n"
+              "answer_4 = [helper(s) for s in range(3)]\n### END SOLUTION")
+    assert mse.student_source(source, 4) == (
+        'def helper(seed):\n    raise NotImplementedError("Exercise 4: write this function")\n\n\n'
+        "answer_4 = None  # your answer")
+
+
+def test_the_stub_keeps_the_indentation_of_the_markers():
+    source = textwrap.dedent('''\
+        def posterior(prior, likelihood):
+            """Normalised product."""
+            ### BEGIN SOLUTION
+            unnorm = prior * likelihood
+            return unnorm / unnorm.sum()
+            ### END SOLUTION
+        ''')
+    assert mse.student_source(source, None) == textwrap.dedent('''\
+        def posterior(prior, likelihood):
+            """Normalised product."""
+            unnorm = None  # your answer
+            raise NotImplementedError("write this function")
+        ''')
+    # the stub is valid Python at that indentation
+    compile(mse.student_source(source, None), "<stub>", "exec")
+
+
+def test_decorators_and_a_docstring_with_quotes_are_kept():
+    source = ('### BEGIN SOLUTION\n@functools.cache\ndef f(x: float = 1.0) -> dict[str, float]:\n'
+              "    '''It's \"f\".'''\n    return {'x': x}\n### END SOLUTION\n")
+    assert mse.student_source(source, 4) == (
+        "@functools.cache\ndef f(x: float = 1.0) -> dict[str, float]:\n    '''It's \"f\".'''\n"
+        "    raise NotImplementedError(\"Exercise 4: write this function\")\n")
+
+
+def test_a_cell_without_markers_is_unchanged():
+    source = "x = 1  # no exercise here\nprint(x)"
+    assert mse.student_source(source) == source
+
+
+@pytest.mark.parametrize("source, message", [
+    ("### BEGIN SOLUTION\nx = 1\n", r"line 1: '### BEGIN SOLUTION' has no '### END SOLUTION'"),
+    ("x = 1\n### END SOLUTION\n", r"line 2: '### END SOLUTION' without a '### BEGIN SOLUTION'"),
+    ("### BEGIN SOLUTION\n### BEGIN SOLUTION\nx = 1\n### END SOLUTION\n### END SOLUTION\n",
+     r"line 2: .* cannot be nested"),
+    ("x = 1  ### BEGIN SOLUTION\ny = 2\n### END SOLUTION\n", r"line 1: .*alone on its line"),
+    ("### BEGIN SOLUTION  # the answer\nx = 1\n### END SOLUTION\n", r"line 1: .*alone on its line"),
+    ("    ### BEGIN SOLUTION\n    x = 1\n### END SOLUTION\n", r"line 3: .*indented differently"),
+    ("### BEGIN SOLUTION\nimport numpy as np\nx = np.eye(2)\n### END SOLUTION\n",
+     r"line 2 .*only top-level def statements and assignments"),
+    ("### BEGIN SOLUTION\nx = 1\nprint(x)\n### END SOLUTION\n", r"line 3 .*only top-level def"),
+    ("### BEGIN SOLUTION\nx[0] = 1\n### END SOLUTION\n", r"only names can be assigned"),
+    ("### BEGIN SOLUTION\nx = (1,\n### END SOLUTION\n", r"not valid Python"),
+])
+def test_malformed_markers_and_solutions_are_errors(source, message):
+    with pytest.raises(mse.StudentEditionError, match=message):
+        mse.student_source(source)
+
+
+def _notebook(cells) -> nbformat.NotebookNode:
+    nb = nbformat.v4.new_notebook(metadata={"kernelspec": {
+        "name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}})
+    for k, (kind, source) in enumerate(cells):
+        new = nbformat.v4.new_markdown_cell if kind == "md" else nbformat.v4.new_code_cell
+        nb.cells.append(new(source, id=f"cell-{k}"))
+    return nb
+
+
+SYNTHETIC = [
+    ("code", "import numpy as np\nimport bayesfilt as bf"),
+    ("md", "## Exercises\n\n### Exercise 1 · A number\n*Kind: derivation · about 5 min · lab*\n\n"
+           "Define `answer_1`, a float."),
+    ("code", "# Exercise 1: your answer\n### BEGIN SOLUTION\nanswer_1 = 0.25 * 8\n### END SOLUTION"),
+    ("code", "bf.checks.compare_number(answer_1, 2.0, what='answer_1')"),
+    ("md", "### Exercise 2 · A function\n*Kind: function · about 15 min · homework*\n\n"
+           "Write `double(x)`."),
+    ("code", "x_given = np.arange(3.0)\n### BEGIN SOLUTION\ndef double(x):\n"
+             "    \"\"\"Twice x.\"\"\"\n    return x + x\n### END SOLUTION"),
+    ("code", "bf.checks.compare_function(double, lambda x: 2 * x, [(x_given,)], what='double')"),
+]
+
+
+def test_the_exercise_number_comes_from_the_comment_or_the_heading():
+    nb = _notebook(SYNTHETIC + [("md", "## Appendix"), ("code", "### BEGIN SOLUTION\nz = 1\n### END SOLUTION")])
+    assert mse.exercise_number(nb.cells, 2) == 1   # "# Exercise 1" comment
+    assert mse.exercise_number(nb.cells, 5) == 2   # "### Exercise 2" heading
+    assert mse.exercise_number(nb.cells, 8) is None  # the nearest heading is not an exercise
+    student = mse.student_notebook(nb)
+    assert 'NotImplementedError("Exercise 2: write this function")' in student.cells[5].source
+
+
+def test_student_notebook_clears_answer_and_check_outputs_only():
+    nb = _notebook(SYNTHETIC)
+    for k, cell in enumerate(nb.cells):
+        if cell.cell_type == "code":
+            cell.execution_count = k
+            cell.outputs = [nbformat.v4.new_output("stream", name="stdout", text=f"out {k}\n")]
+    student = mse.student_notebook(nb, "synthetic.ipynb")
+    assert nb.cells[2].source.count("BEGIN") == 1, "the input notebook must not be changed"
+    assert student.cells[0] == nb.cells[0]
+    for k in (2, 3, 5, 6):
+        assert student.cells[k].outputs == [] and student.cells[k].execution_count is None
+    assert student.cells[2].source == "# Exercise 1: your answer\nanswer_1 = None  # your answer"
+    assert student.cells[3].source == nb.cells[3].source
+    assert student.cells[5].source == ('x_given = np.arange(3.0)\ndef double(x):\n    """Twice x."""\n'
+                                       '    raise NotImplementedError("Exercise 2: write this function")')
+
+
+def test_an_error_names_the_notebook_and_the_cell():
+    nb = _notebook(SYNTHETIC + [("code", "### BEGIN SOLUTION\ny = 1")])
+    with pytest.raises(mse.StudentEditionError,
+                       match=r"^bad\.ipynb, cell 8, id cell-7: line 1: '### BEGIN SOLUTION' has no"):
+        mse.student_notebook(nb, "bad.ipynb")
+
+
+def test_exercises_are_listed_with_kind_time_and_setting():
+    found = mse.exercises(_notebook(SYNTHETIC))
+    assert [(e["number"], e["title"], e["kind"], e["time"], e["setting"]) for e in found] == [
+        (1, "A number", "derivation", "about 5 min", "lab"),
+        (2, "A function", "function", "about 15 min", "homework")]
+
+
+def test_a_synthetic_student_notebook_runs_and_says_not_attempted(tmp_path):
+    nb = _notebook(SYNTHETIC)
+    student = mse.student_notebook(nb)
+    for which, expected in ((nb, "Correct"), (student, "Not attempted yet")):
+        NotebookClient(which, timeout=120, kernel_name="python3",
+                       resources={"metadata": {"path": str(tmp_path)}}).execute()
+        for k in (3, 6):
+            assert _outputs_text(which.cells[k]).startswith(expected), _outputs_text(which.cells[k])
+
+
+# --- the command line: refusals and determinism -------------------------------------------
+
+@pytest.fixture
+def fake_repo(tmp_path) -> Path:
+    """A copy of the repository's layout: the tool, and notebooks/ with a synthetic chapter.
+
+    The command-line tests write here, so that a broken refusal could never
+    overwrite the real notebooks.
+    """
+    repo = tmp_path / "repo"
+    (repo / "tools").mkdir(parents=True)
+    (repo / "notebooks").mkdir()
+    shutil.copy(TOOL, repo / "tools" / TOOL.name)
+    nbformat.write(_notebook(SYNTHETIC), repo / "notebooks" / "01_synthetic.ipynb")
+    shutil.copy(min(CHAPTERS, key=lambda p: p.stat().st_size), repo / "notebooks")
+    return repo
+
+
+def _cli(repo: Path, *args: str, cwd: Path | None = None, hashseed: str = "0"):
+    env = dict(os.environ, PYTHONHASHSEED=hashseed)
+    return subprocess.run([sys.executable, str(repo / "tools" / TOOL.name), *args],
+                          cwd=cwd or repo, env=env, capture_output=True, text=True, timeout=120)
+
+
+def _snapshot(folder: Path) -> dict:
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_help_documents_the_usage():
+    proc = subprocess.run([sys.executable, str(TOOL), "--help"], capture_output=True, text=True)
+    assert proc.returncode == 0
+    assert "OUTPUT_DIR" in proc.stdout and "--force" in proc.stdout
+    assert "python tools/make_student_edition.py student/" in mse.__doc__
+
+
+def test_writes_into_a_new_folder_and_refuses_a_non_empty_one_without_force(fake_repo, tmp_path):
+    out = tmp_path / "student"
+    first = _cli(fake_repo, str(out))
+    assert first.returncode == 0, first.stderr
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in (fake_repo / "notebooks").glob("*.ipynb"))
+    (out / "notes.txt").write_text("mine")
+    before = _snapshot(out)
+    again = _cli(fake_repo, str(out))
+    assert again.returncode != 0
+    assert "not empty" in again.stderr and "--force" in again.stderr
+    assert _snapshot(out) == before, "a refused run must not touch the folder"
+    forced = _cli(fake_repo, str(out), "--force")
+    assert forced.returncode == 0, forced.stderr
+    assert (out / "notes.txt").read_text() == "mine", "--force deletes nothing"
+
+
+@pytest.mark.parametrize("how", ["absolute", "relative", "dot", "dotdot", "inside", "symlink",
+                                 "symlink-inside"])
+def test_refuses_the_notebooks_folder_even_with_force(fake_repo, tmp_path, how):
+    notebooks = fake_repo / "notebooks"
+    cwd = fake_repo
+    if how == "absolute":
+        target = str(notebooks)
+    elif how == "relative":
+        target = "notebooks"
+    elif how == "dot":
+        target, cwd = ".", notebooks
+    elif how == "dotdot":
+        target = "tools/../notebooks/"
+    elif how == "inside":
+        target = "notebooks/student"
+    else:
+        link = tmp_path / "link"
+        link.symlink_to(notebooks, target_is_directory=True)
+        target = str(link) if how == "symlink" else str(link / "student")
+    before = _snapshot(notebooks)
+    proc = _cli(fake_repo, target, "--force", cwd=cwd)
+    assert proc.returncode != 0
+    assert "refusing" in proc.stderr and "notebooks" in proc.stderr, proc.stderr
+    assert _snapshot(notebooks) == before and not (notebooks / "student").exists()
+
+
+@pytest.mark.parametrize("target", ["notebooks", "notebooks/student", "notebooks/../notebooks"])
+def test_refuses_the_real_notebooks_folder_before_reading_anything(monkeypatch, target):
+    """The real folder, in-process, with reading and writing disabled: nothing can be hurt."""
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the tool touched a notebook before refusing")
+
+    monkeypatch.setattr(mse.nbformat, "read", forbidden)
+    monkeypatch.setattr(mse.nbformat, "write", forbidden)
+    monkeypatch.chdir(ROOT)
+    assert mse.main([target, "--force"]) == 2
+    assert mse.main([str(ROOT / target), "--force"]) == 2
+    assert not (NOTEBOOKS / "student").exists()
+
+
+def test_malformed_markers_stop_the_tool_before_writing(fake_repo, tmp_path):
+    nbformat.write(_notebook(SYNTHETIC + [("code", "x = 1\n### END SOLUTION")]),
+                   fake_repo / "notebooks" / "09_broken.ipynb")
+    out = tmp_path / "student"
+    proc = _cli(fake_repo, str(out))
+    assert proc.returncode == 1
+    assert "09_broken.ipynb, cell 8" in proc.stderr and "without a '### BEGIN SOLUTION'" in proc.stderr
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_output_is_byte_identical_from_run_to_run(fake_repo, tmp_path):
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert _cli(fake_repo, str(one), hashseed="1").returncode == 0
+    assert _cli(fake_repo, str(two), hashseed="2").returncode == 0
+    assert _snapshot(one) == _snapshot(two)
+    assert "NotImplementedError" in (one / "01_synthetic.ipynb").read_text()
+
