@@ -67,7 +67,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ._checks import as_array, as_int, as_matrix, as_rng, as_vector, check_callable, check_output
+from ._checks import as_int, as_matrix, as_rng, as_vector, check_callable, check_output
 from .gaussian import _cholesky, _factor, _logpdf_rows
 from .resampling import SCHEMES
 

@@ -31,9 +31,11 @@ This module holds the generic comparisons; the chapter modules
 from __future__ import annotations
 
 import copy
+import functools
 import importlib
 import numbers
 import re
+import warnings
 from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
@@ -79,6 +81,22 @@ def _not_written(what: str) -> Feedback:
 
 def _wrong(message: str) -> Feedback:
     return Feedback(INCORRECT, message)
+
+
+def _never_raises(what: str):
+    """Turn any unexpected failure of a check into feedback (a check must never raise)."""
+    def decorate(check: Callable) -> Callable:
+        @functools.wraps(check)
+        def wrapper(answer):
+            try:
+                with np.errstate(all="ignore"), warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    return check(answer)
+            except Exception as exc:  # noqa: BLE001 - feedback, not a crash
+                return _wrong(f"{what} could not be checked ({type(exc).__name__}: {exc}); "
+                              f"check its type and shape against the statement.")
+        return wrapper
+    return decorate
 
 
 def _as_numbers(answer, what: str):

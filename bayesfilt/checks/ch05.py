@@ -37,13 +37,13 @@ import functools
 import math
 import numbers
 import re
-import warnings
 from typing import Callable
 
 import numpy as np
 
 from .. import models, particle
-from . import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
+from . import (CORRECT, Feedback, _never_raises, _not_attempted,
+               _not_written, _wrong)
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
 
@@ -80,34 +80,7 @@ TOL_FUNCTION = 1e-8
 # small helpers (feedback that never raises)
 # --------------------------------------------------------------------------
 
-def _not_attempted(what: str) -> Feedback:
-    return Feedback(NOT_ATTEMPTED, f"{what} is still None; write your answer in the cell above "
-                                   f"and run it, then run this check again.")
-
-
-def _not_written(what: str) -> Feedback:
-    return Feedback(NOT_ATTEMPTED, f"{what} still raises NotImplementedError; write its body in "
-                                   f"the cell above and run it, then run this check again.")
-
-
-def _wrong(message: str) -> Feedback:
-    return Feedback(INCORRECT, message)
-
-
-def _never_raises(what: str):
-    """Turn any unexpected failure of a check into feedback (a check must never raise)."""
-    def decorate(check: Callable) -> Callable:
-        @functools.wraps(check)
-        def wrapper(answer):
-            try:
-                with np.errstate(all="ignore"), warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    return check(answer)
-            except Exception as exc:  # noqa: BLE001 - feedback, not a crash
-                return _wrong(f"{what} could not be checked ({type(exc).__name__}: {exc}); "
-                              f"check its type and shape against the statement.")
-        return wrapper
-    return decorate
+# _not_attempted, _not_written, _wrong and _never_raises come from bayesfilt.checks.
 
 
 def _real_array(value, what: str, allow_neg_inf: bool = False):
