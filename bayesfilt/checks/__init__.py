@@ -99,6 +99,45 @@ def _never_raises(what: str):
     return decorate
 
 
+def _frozen(a) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+def _matches(a: np.ndarray, wrong, rtol: float, atol: float) -> bool:
+    if wrong is None:
+        return False
+    wrong = np.asarray(wrong, dtype=float)
+    return a.shape == wrong.shape and bool(np.allclose(a, wrong, rtol=rtol, atol=atol))
+
+
+def _combine(parts: Sequence[tuple[str, Feedback]]) -> Feedback:
+    """One feedback for an exercise with several answers: correct when all are."""
+    statuses = [fb.status for _, fb in parts]
+    if all(s == CORRECT for s in statuses):
+        return Feedback(CORRECT, " ".join(fb.message for _, fb in parts))
+
+    def blank(name: str, fb: Feedback) -> str:
+        unwritten = "NotImplementedError" in fb.message
+        return f"{name} {'still raises NotImplementedError' if unwritten else 'is still None'}"
+
+    if all(s == NOT_ATTEMPTED for s in statuses):
+        return Feedback(NOT_ATTEMPTED, f"{' and '.join(blank(n, fb) for n, fb in parts)}; write "
+                                       f"your answers in the cell above and run it, then run "
+                                       f"this check again.")
+    lines = []
+    for name, fb in parts:
+        if fb.status == CORRECT:
+            lines.append(f"{name}: correct.")
+        elif fb.status == NOT_ATTEMPTED:
+            lines.append(f"{name}: not attempted yet ({blank(name, fb)}).")
+        else:
+            lines.append(fb.message)
+    status = INCORRECT if INCORRECT in statuses else NOT_ATTEMPTED
+    return Feedback(status, " ".join(lines))
+
+
 def _as_numbers(answer, what: str):
     """(array, None) or (None, Feedback) when the answer is not an array of real numbers."""
     try:

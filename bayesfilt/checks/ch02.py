@@ -32,16 +32,10 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _not_attempted,
-               _wrong, compare_array, compare_choice)
+               _wrong, compare_array, compare_choice, _frozen, _matches)
 from .. import bayes, gaussian, kalman, models
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
-
-
-def _frozen(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 # ---------------------------------------------------------------------------
@@ -83,13 +77,6 @@ def _try(fn: Callable, *args):
     except Exception:  # noqa: BLE001 - a mistake that cannot be formed here is simply not it
         return None
     return out if np.all(np.isfinite(out)) else None
-
-
-def _matches(a: np.ndarray, wrong, rtol: float, atol: float) -> bool:
-    if wrong is None:
-        return False
-    wrong = np.asarray(wrong, dtype=float)
-    return a.shape == wrong.shape and bool(np.allclose(a, wrong, rtol=rtol, atol=atol))
 
 
 def _array_feedback(answer, expected, what: str, mistakes: Sequence[tuple], rtol: float = 1e-6,

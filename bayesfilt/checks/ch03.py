@@ -55,16 +55,11 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .. import gaussian, kalman, models
-from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _not_attempted, _wrong,
-               compare_array, compare_choice, compare_number)
+from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _not_attempted,
+               _wrong, compare_array, compare_choice, compare_number, _frozen, _matches,
+               _combine)
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
-
-
-def _frozen(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 # ---------------------------------------------------------------------------
@@ -174,32 +169,6 @@ def _choice(answer, expected: str, what: str, hint: str) -> Feedback:
                           hint)
 
 
-def _combine(parts: Sequence[tuple[str, Feedback]]) -> Feedback:
-    """One feedback for an exercise with several answers: correct when all are."""
-    statuses = [fb.status for _, fb in parts]
-    if all(s == CORRECT for s in statuses):
-        return Feedback(CORRECT, " ".join(fb.message for _, fb in parts))
-
-    def blank(name: str, fb: Feedback) -> str:
-        unwritten = "NotImplementedError" in fb.message
-        return f"{name} {'still raises NotImplementedError' if unwritten else 'is still None'}"
-
-    if all(s == NOT_ATTEMPTED for s in statuses):
-        return Feedback(NOT_ATTEMPTED, f"{' and '.join(blank(n, fb) for n, fb in parts)}; write "
-                                       f"your answers in the cell above and run it, then run "
-                                       f"this check again.")
-    lines = []
-    for name, fb in parts:
-        if fb.status == CORRECT:
-            lines.append(f"{name}: correct.")
-        elif fb.status == NOT_ATTEMPTED:
-            lines.append(f"{name}: not attempted yet ({blank(name, fb)}).")
-        else:
-            lines.append(fb.message)
-    status = INCORRECT if INCORRECT in statuses else NOT_ATTEMPTED
-    return Feedback(status, " ".join(lines))
-
-
 def _failure(exc: Exception) -> str:
     try:
         return f"{type(exc).__name__}: {exc}"
@@ -225,13 +194,6 @@ def _run(fun, what: str, where: str, args: tuple, hint: Callable = lambda exc: "
     if out is None:
         return None, _wrong(f"{what} returned None on {where}; did you forget `return`?")
     return out, None
-
-
-def _matches(a: np.ndarray, wrong, rtol: float, atol: float) -> bool:
-    if wrong is None:
-        return False
-    wrong = np.asarray(wrong, dtype=float)
-    return a.shape == wrong.shape and bool(np.allclose(a, wrong, rtol=rtol, atol=atol))
 
 
 def _array_feedback(answer, expected, what: str, mistakes: Sequence[tuple], rtol: float = 1e-6,
