@@ -67,7 +67,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ._checks import as_int, as_matrix, as_rng, as_vector, check_callable, check_output
+from ._checks import (as_int, as_matrix, as_positive_float, as_rng, as_vector, check_callable,
+                      check_output)
 from .gaussian import _cholesky, _factor, _logpdf_rows
 from .resampling import SCHEMES
 
@@ -496,8 +497,8 @@ def _check_us(model, us, T):
 
 
 def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="systematic",
-                    ess_threshold: float = 0.5, us=None, keep_history: bool = False
-                    ) -> ParticleFilterResult:
+                    ess_threshold: float = 0.5, us=None, keep_history: bool = False,
+                    roughening: float | None = None) -> ParticleFilterResult:
     r"""Run a particle filter (SIS with adaptive resampling) over a measurement record.
 
     For t = 0, ..., T-1 (seed 000 §3.2, steps [1]-[5]; Arulampalam et al.
@@ -510,7 +511,11 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     2. weight them by eq. (13), normalise in the log domain (step [3]) and
        record the weighted mean, covariance and ESS;
     3. if ``ESS < ess_threshold * N`` (always when ``ess_threshold == 1``),
-       resample with the named scheme and reset the weights to 1/N (step [4]).
+       resample with the named scheme and reset the weights to 1/N (step [4]);
+       with ``roughening = K``, then jitter every particle (Gordon, Salmond
+       & Smith 1993): :math:`x^i_k \leftarrow x^i_k + K E_k N^{-1/n} z^i_k`,
+       :math:`z^i_k \sim N(0, 1)`, :math:`E_k` the range of component k of
+       the resampled particles (chapter 06, section 7).
 
     Parameters
     ----------
@@ -537,6 +542,10 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     keep_history : bool
         Also return every step's particles, weights and ancestors
         (O(T N n) memory; for plots).
+    roughening : float, optional
+        The constant K > 0 of roughening after each resampling, a remedy for
+        sample impoverishment when the process noise is small; None (the
+        default) adds no jitter.
 
     Returns
     -------
@@ -559,6 +568,8 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
         raise ValueError(f"resample must be one of {sorted(SCHEMES)}, got {resample!r}")
     scheme = SCHEMES[resample]
     threshold = _check_threshold(ess_threshold)
+    if roughening is not None:
+        roughening = as_positive_float("roughening", roughening)
     n = model.state_dim
     ys, observed = _check_ys(ys, model.obs_dim)
     T = ys.shape[0]
@@ -597,6 +608,10 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
             X = X[parents]
             log_W = np.full(N, -np.log(N))
             resampled[t] = True
+            if roughening is not None:
+                # sigma_k = K E_k N^(-1/n), E_k the range of component k
+                sigma = roughening * np.ptp(X, axis=0) * N ** (-1.0 / n)
+                X = X + sigma * rng.standard_normal(X.shape)
         else:
             parents = np.arange(N)
     history = ParticleHistory(hist_X, hist_W, hist_A) if keep_history else None

@@ -291,3 +291,29 @@ def test_particle_filter_rejects_bad_data_and_bad_proposals():
                                        logpdf=lambda x, xp, y, t: np.full(len(x), np.nan))
     with pytest.raises(ValueError, match="proposal.logpdf must return 10 finite log-densities"):
         bf.particle.particle_filter(model, np.zeros((3, 1)), 10, rng, proposal=nan_density)
+
+
+def test_roughening_is_gordons_jitter_after_each_resampling():
+    # Against the algorithm written out by hand (chapter 06, section 7): same random
+    # stream, so the same particles up to the last bits of the weights' normalisation.
+    model = linear_model()
+    _, ys = bf.models.simulate(model, 12, np.random.default_rng(0))
+    N, K = 500, 0.3
+    rng = np.random.default_rng(1)
+    X, means = model.sample_initial(rng, N), []
+    for t, y in enumerate(ys):
+        if t > 0:
+            X = model.sample_transition(rng, X, t=t - 1)
+        ll = model.measurement_logpdf(y, X)
+        W = np.exp(ll - ll.max())
+        W /= W.sum()
+        means.append(W @ X)
+        X = X[bf.resampling.systematic(W, rng)]
+        X = X + K * np.ptp(X, axis=0) * N ** (-1 / 2) * rng.standard_normal(X.shape)
+    res = bf.particle.particle_filter(model, ys, N, np.random.default_rng(1), ess_threshold=1.0,
+                                      roughening=K)
+    np.testing.assert_allclose(res.means, np.array(means), rtol=1e-10, atol=1e-12)
+    plain = bf.particle.particle_filter(model, ys, N, np.random.default_rng(1), ess_threshold=1.0)
+    assert not np.allclose(plain.means[1:], res.means[1:]), "roughening changed nothing"
+    with pytest.raises(ValueError, match="roughening must be finite and > 0"):
+        bf.particle.particle_filter(model, ys, N, np.random.default_rng(1), roughening=-1.0)

@@ -682,19 +682,8 @@ def exercise_3(answer) -> Feedback:
 
 def _roughened_sir(model, ys, N: int, rng, K: float):
     """Section 7's SIR filter with roughening: weighted means and covariances per step."""
-    d = model.state_dim
-    means, covs = np.empty((len(ys), d)), np.empty((len(ys), d, d))
-    X = model.sample_initial(rng, N)
-    for t, y in enumerate(ys):
-        if t > 0:
-            X = model.sample_transition(rng, X, t=t - 1)
-        log_W, _ = particle.log_normalize(model.measurement_logpdf(y, X))
-        W = np.exp(log_W)
-        means[t], covs[t] = particle.weighted_mean_cov(X, W)
-        X = X[resampling.systematic(W, rng)]
-        # sigma_k = K E_k N^(-1/d), E_k the range of component k
-        X = X + K * np.ptp(X, axis=0) * N ** (-1 / d) * rng.standard_normal(X.shape)
-    return means, covs
+    res = particle.particle_filter(model, ys, N, rng, ess_threshold=1.0, roughening=K)
+    return res.means, res.covs
 
 
 def _nees(errors: np.ndarray, covs: np.ndarray) -> np.ndarray:
