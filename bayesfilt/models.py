@@ -845,8 +845,10 @@ def ungm(process_var: float = 10.0, meas_var: float = 1.0, prior_var: float = 5.
     ``f(x, t)`` for the step :math:`x_t \to x_{t+1}` uses
     :math:`\cos(1.2(t+1))`. Others use the index of the old state (e.g.
     RcppSMC's ``pfNonlinBS``: :math:`8\cos(1.2(n-1))` in the equation for
-    :math:`x(n)`). The paper states no prior; the course takes
-    :math:`x_0 \sim N(0, 5)` (``prior_var``), and, by seed 000's time
+    :math:`x(n)`). Reproductions differ on the prior too (the example that
+    accompanies D. Simon's *Optimal State Estimation* starts from x = 0.1
+    with variance 2); the course takes :math:`x_0 \sim N(0, 5)`
+    (``prior_var``), and, by seed 000's time
     convention, ``ys[0]`` already measures :math:`x_0` (the paper's first
     measurement is :math:`z_1`).
 
