@@ -473,7 +473,7 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
     :math:`p(x_t \approx g_j \mid y_{0:t})`; the transition matrix is the
     model's transition density between cell centres, each row normalised
     (``transition[i, j]`` proportional to
-    ``exp(model.transition_logpdf(g_j, g_i, t=t))``), rebuilt at every step
+    ``exp(model.transition_logpdf(g_j, g_i, t=t - 1))`` for the step to t), rebuilt at every step
     for a time-varying model; the likelihood is
     ``exp(model.measurement_logpdf(y_t, g_j))``. With cells much narrower
     than the posterior and a grid wider than its support, this is the exact
@@ -514,6 +514,9 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
     cells = g[:, None]
     # p(x_0 = g_j): the prior density at the cell centres, normalised over the grid
     prior = np.exp(_logpdf_prior(model, g))
+    if not prior.sum() > 0:
+        raise ValueError("grid_filter: the prior N(m0, P0) is zero on the whole grid "
+                         f"[{g[0]:.4g}, {g[-1]:.4g}]: move or widen the grid")
     prior = prior / prior.sum()
     time_varying = getattr(model, "time_varying", False)
     trans = None
@@ -530,6 +533,7 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
             prior = posteriors[t - 1] @ trans
         if np.all(np.isnan(ys[t])):
             posteriors[t] = prior
+            _check_edges(posteriors[t], g, t)
             continue
         log_lik = model.measurement_logpdf(ys[t], cells)
         # posterior ∝ p(y_t | g_j) prior_j; the evidence sum_j p(y_t | g_j) prior_j
@@ -544,15 +548,19 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
                              "overlap on the grid: widen or refine the grid")
         posteriors[t] = unnorm / evidence
         loglik += shift + np.log(evidence)
-        edge = max(posteriors[t, 0], posteriors[t, -1])
-        if edge > EDGE_MASS:
-            # mass piling up at the boundary means the true posterior is cut off
-            raise ValueError(f"grid_filter, step t = {t}: the posterior has probability "
-                             f"{edge:.2g} in an end cell of the grid [{g[0]:.4g}, {g[-1]:.4g}]; "
-                             "it is cut off there: widen the grid")
+        _check_edges(posteriors[t], g, t)
     means = posteriors @ g
     variances = posteriors @ (g * g) - means ** 2
     return GridFilterResult(g, posteriors, means, np.maximum(variances, 0.0), float(loglik))
+
+
+def _check_edges(belief, g, t):
+    """Mass piling up in an end cell means the true distribution is cut off there."""
+    edge = max(belief[0], belief[-1])
+    if edge > EDGE_MASS:
+        raise ValueError(f"grid_filter, step t = {t}: the belief has probability {edge:.2g} in an "
+                         f"end cell of the grid [{g[0]:.4g}, {g[-1]:.4g}]; it is cut off there: "
+                         "widen the grid")
 
 
 def _logpdf_prior(model, g):

@@ -259,6 +259,9 @@ class _ModelBase:
     def _check_names(self, n: int) -> None:
         """Validate ``state_names`` (n distinct strings) and ``position_names`` (two of them)."""
         names = self.state_names
+        for what, value in (("state_names", names), ("position_names", self.position_names)):
+            if isinstance(value, str):
+                raise TypeError(f"{what} must be a tuple of strings, got the string {value!r}")
         if names is not None:
             names = tuple(names)
             if len(names) != n or not all(isinstance(a, str) for a in names) or len(set(names)) != n:

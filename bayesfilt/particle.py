@@ -239,7 +239,11 @@ def weighted_mean_cov(particles, weights) -> tuple[np.ndarray, np.ndarray]:
     """
     X = as_matrix("particles", particles)
     W = as_vector("weights", weights, X.shape[0])
-    return _mean_cov(X, W)
+    if np.any(W < 0) or not W.sum() > 0:
+        raise ValueError("weights must be non-negative and not all zero, got min "
+                         f"{W.min():.3g}, sum {W.sum():.3g}")
+    # normalised here, as ess() does, so unnormalised weights cannot give a wrong answer
+    return _mean_cov(X, W / W.sum())
 
 
 def _mean_cov(X, W):
@@ -334,6 +338,9 @@ def sis_step(model, rng, particles, log_weights, y, t: int, proposal=None, u=Non
     t = as_int("t", t, minimum=1)
     if proposal is not None:
         proposal = _check_proposal(proposal)
+        if u is not None:
+            raise ValueError("proposal: a Proposal receives no control input u; use "
+                             "proposal=None (the bootstrap) with u")
     if y is not None:
         y = as_vector("y", y, model.obs_dim, finite=False)
         if np.all(np.isnan(y)):
@@ -576,6 +583,10 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     if T == 0:
         raise ValueError(f"ys must have at least one row, got shape {ys.shape}")
     us = _check_us(model, us, T)
+    if proposal is not None and us is not None:
+        raise ValueError("proposal: a Proposal's sample and logpdf receive no control input u, "
+                         "so eq. (13) would divide p(x_t | x_(t-1), u) by a q without u; use "
+                         "proposal=None (the bootstrap) with us, or a model without B")
 
     means, covs = np.empty((T, n)), np.empty((T, n, n))
     ess_t, resampled, step_logliks = np.empty(T), np.zeros(T, dtype=bool), np.zeros(T)

@@ -353,3 +353,13 @@ def test_grid_filter_rejects_bad_input():
         bf.bayes.grid_filter(_scalar_linear_model(), np.zeros(3), [0.0, 1.0, 3.0])
     with pytest.raises(ValueError, match="widen"):
         bf.bayes.grid_filter(_scalar_linear_model(R=[[1e-4]]), np.array([1e3]), np.linspace(-1, 1, 50))
+
+
+def test_grid_filter_never_returns_nan_and_checks_edges_on_missing_rows():
+    with pytest.raises(ValueError, match="prior N\\(m0, P0\\) is zero on the whole grid"):
+        bf.bayes.grid_filter(_scalar_linear_model(m0=[0.0], P0=[[1.0]]), np.array([np.nan, np.nan]),
+                             np.linspace(100, 200, 101))
+    # a grid too narrow for the prior must not truncate it silently, even without a measurement
+    with pytest.raises(ValueError, match="step t = 0: the belief has probability"):
+        bf.bayes.grid_filter(_scalar_linear_model(m0=[0.0], P0=[[1.0]]), np.array([np.nan]),
+                             np.linspace(-1, 1, 41))

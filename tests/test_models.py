@@ -425,3 +425,8 @@ def test_time_varying_flag_is_checked():
     ok = _pendulum_parts()
     with pytest.raises(TypeError, match="time_varying must be True or False"):
         bf.models.NonlinearGaussian(**{**ok, "time_varying": "yes"})
+
+
+def test_state_names_given_as_a_string_are_refused():
+    with pytest.raises(TypeError, match="state_names must be a tuple of strings"):
+        small_model(state_names="ab")

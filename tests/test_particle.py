@@ -317,3 +317,22 @@ def test_roughening_is_gordons_jitter_after_each_resampling():
     assert not np.allclose(plain.means[1:], res.means[1:]), "roughening changed nothing"
     with pytest.raises(ValueError, match="roughening must be finite and > 0"):
         bf.particle.particle_filter(model, ys, N, np.random.default_rng(1), roughening=-1.0)
+
+
+def test_weighted_mean_cov_normalises_and_rejects_negative_weights():
+    mean, cov = bf.particle.weighted_mean_cov([[1.0], [2.0], [3.0]], [1.0, 1.0, 1.0])
+    assert mean[0] == pytest.approx(2.0) and cov[0, 0] == pytest.approx(2 / 3)
+    with pytest.raises(ValueError, match="weights must be non-negative"):
+        bf.particle.weighted_mean_cov([[1.0], [2.0], [3.0]], [-1.0, 1.0, 1.0])
+
+
+def test_a_proposal_with_a_control_input_is_refused():
+    # a Proposal never sees u, so eq. (13) would compare p(x | x_prev, u) with a q without u
+    model = linear_model(B=[[1.0], [0.0]])
+    q = bf.particle.transition_proposal(model)
+    with pytest.raises(ValueError, match="proposal: a Proposal's sample and logpdf receive no control"):
+        bf.particle.particle_filter(model, np.zeros((4, 1)), 10, np.random.default_rng(0),
+                                    proposal=q, us=np.ones((3, 1)))
+    with pytest.raises(ValueError, match="proposal: a Proposal receives no control input"):
+        bf.particle.sis_step(model, np.random.default_rng(0), np.zeros((5, 2)), np.full(5, -np.log(5)),
+                             [0.0], t=1, proposal=q, u=[1.0])
