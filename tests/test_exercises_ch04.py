@@ -109,6 +109,9 @@ def _exercise_cells() -> dict[int, dict[str, str]]:
             out[n]["answer"] = source
         elif n is not None and kind == "code" and "bf.checks.ch04" in source:
             out[n]["check"] = source
+        elif n is not None and kind == "code":
+            # given code in a cell of its own before the answer cell (kept short)
+            out[n]["given"] = out[n].get("given", "") + source + "\n"
     return out
 
 
@@ -122,7 +125,7 @@ def test_five_exercises_in_the_pattern():
     cells = _exercise_cells()
     assert sorted(cells) == [1, 2, 3, 4, 5]
     for n, parts in cells.items():
-        assert set(parts) == {"statement", "answer", "check"}, n
+        assert set(parts) - {"given"} == {"statement", "answer", "check"}, n
 
 
 def test_the_notebook_states_the_numbers_of_the_module():
@@ -132,7 +135,7 @@ def test_the_notebook_states_the_numbers_of_the_module():
         shown = "[" + ", ".join(f"{v:g}" for v in state) + "]"
         assert shown in text1, shown
     assert ch04.H_STATES[ch04.ON_THE_RY_AXIS][0] == 0.0 and "$r_x = 0$" in text1
-    text2, answer2 = cells[2]["statement"], cells[2]["answer"]
+    text2, answer2 = cells[2]["statement"], cells[2].get("given", "") + cells[2]["answer"]
     assert "0.1\\ \\mathrm{m}^2" in text2 and "0.01\\ \\mathrm{rad}^2" in text2
     np.testing.assert_array_equal(MODEL.R, R)
     assert f"np.random.default_rng({ch04.NEES_SEED})" in answer2 and "T=11" in answer2
@@ -342,7 +345,8 @@ def notebook_experiment():
     """The function the answer cell gives, run with the chapter's variables."""
     namespace = {"np": np, "bf": bf, "dataclasses": dataclasses, "model": MODEL,
                  "x_start": bf.models.RANGE_BEARING_TRUE_START, "pos": MODEL.index_of("r_x", "r_y")}
-    return _given(_exercise_cells()[2]["answer"], namespace)["nees_from_first_measurement"]
+    cells = _exercise_cells()[2]
+    return _given(cells.get("given", "") + cells["answer"], namespace)["nees_from_first_measurement"]
 
 
 def test_ex2_the_notebooks_experiment_is_the_modules(notebook_experiment):
