@@ -55,9 +55,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .. import gaussian, kalman, models
-from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _not_attempted,
+from . import (CORRECT, INCORRECT, Feedback, _as_numbers, _not_attempted,
                _wrong, compare_array, compare_choice, compare_number, _frozen, _matches,
-               _combine)
+               _combine, _not_written)
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
 
@@ -182,9 +182,7 @@ def _run(fun, what: str, where: str, args: tuple, hint: Callable = lambda exc: "
     try:
         out = fun(*copy.deepcopy(args))
     except NotImplementedError:
-        return None, Feedback(NOT_ATTEMPTED, f"{what} still raises NotImplementedError; write "
-                                             f"its body in the cell above and run it, then run "
-                                             f"this check again.")
+        return None, _not_written(what)
     except Exception as exc:  # noqa: BLE001 - any failure is feedback, not a crash
         try:
             extra = hint(exc)

@@ -58,8 +58,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .. import ekf, gaussian, kalman, models
-from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _not_attempted,
-               _wrong, compare_array, _frozen, _matches, _combine)
+from . import (CORRECT, INCORRECT, Feedback, _as_numbers, _not_attempted,
+               _wrong, compare_array, _frozen, _matches, _combine, _not_written)
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
 
@@ -246,9 +246,7 @@ def _run_case(fun, what: str, where: str, args: tuple,
     try:
         out = _quiet(fun, args)
     except NotImplementedError:
-        return None, Feedback(NOT_ATTEMPTED, f"{what} still raises NotImplementedError; write "
-                                             f"its body in the cell above and run it, then run "
-                                             f"this check again.")
+        return None, _not_written(what)
     except Exception as exc:  # noqa: BLE001 - any failure is feedback, not a crash
         try:
             hint = exception_hint(exc)
