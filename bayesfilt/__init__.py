@@ -11,6 +11,7 @@ Import it as ``bf`` and reach each concept through its module::
     bf.particle   # particle filters (SIS, bootstrap, SIR) -- chapters 05-06
     bf.resampling # resampling schemes                     -- chapter 06
     bf.plotting   # plots used by the notebooks
+    bf.verify     # the one-line checks after each derivation
     bf.checks     # exercises that answer back              -- every chapter
 
 Modules load on first use, so ``import bayesfilt`` stays cheap and does not
@@ -23,7 +24,7 @@ import importlib
 
 __version__ = "0.1.0"
 
-_MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "particle", "resampling", "plotting", "checks")
+_MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "particle", "resampling", "plotting", "verify", "checks")
 __all__ = list(_MODULES)
 
 

@@ -1,0 +1,277 @@
+r"""Quiet checks: one line after a derivation that says what agreed.
+
+Every derivation in the course is followed by a numerical check against an
+independent reference (a simulation, brute force, another formula, filterpy).
+In a chapter that check is one call to this module::
+
+    import bayesfilt as bf
+    bf.verify.agree("prediction vs. brute force", prior, brute)
+    bf.verify.mc_moments("x_1 vs. 100 000 simulated draws", draws, mean, cov)
+
+Each function prints one short line when the comparison holds and raises
+``AssertionError`` with a message that says what differed when it does not.
+There are two kinds of comparison.
+
+**Exact up to rounding** (:func:`agree`, :func:`within`). Two computations of
+the same number; the tolerance is a bound on floating-point round-off, and
+the printed line gives the bound, not the raw difference, so that the
+output does not depend on the last bits of the arithmetic.
+
+**Monte Carlo** (:func:`mc_mean`, :func:`mc_moments`, :func:`mc_frequencies`).
+An estimate from :math:`M` independent draws is compared with the exact value
+in standard errors (SE). A check must not raise a false alarm for any seed, so
+the limit is chosen from the failure probability, not by hand: with ``k``
+entries compared at once, each one is allowed
+
+.. math:: z_k = \Phi^{-1}\!\left(1 - \frac{\alpha}{2k}\right) \quad\text{SE},
+   \qquad \alpha = 10^{-4},
+
+so that, by the union bound, a correct result fails with probability below
+:math:`\alpha` whatever the seed (:func:`z_limit`; :math:`z_1 = 3.9`,
+:math:`z_{100} = 5.0`). The standard error is that of a normal approximation
+(central limit theorem), which is accurate for the sample sizes the chapters
+use (thousands of draws; an entry whose exact SE is zero, such as the
+frequency of an impossible cell, must match exactly). A wrong derivation is
+typically off by many SE and fails.
+"""
+
+from __future__ import annotations
+
+from statistics import NormalDist
+
+import numpy as np
+
+__all__ = ["z_limit", "agree", "within", "mean_se", "mc_mean", "mc_moments", "mc_frequencies"]
+
+ALPHA = 1e-4
+"""Largest probability that a Monte Carlo check fails on a correct result."""
+
+
+def z_limit(k: int = 1, alpha: float = ALPHA) -> float:
+    r"""Allowed deviation in SE when ``k`` entries are compared at once.
+
+    Parameters
+    ----------
+    k : int
+        Number of entries compared (>= 1).
+    alpha : float
+        Largest false-alarm probability of the whole comparison, in (0, 1).
+
+    Returns
+    -------
+    float
+        :math:`\Phi^{-1}(1 - \alpha / (2k))`, two-sided, union bound over ``k``.
+    """
+    if int(k) != k or k < 1:
+        raise ValueError(f"k: expected a positive integer (entries compared), got {k!r}")
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha: expected a probability in (0, 1), got {alpha!r}")
+    return NormalDist().inv_cdf(1 - alpha / (2 * int(k)))
+
+
+def _same_shape(label, got, expected):
+    got = np.asarray(got, dtype=float)
+    expected = np.asarray(expected, dtype=float)
+    if got.shape != expected.shape:
+        raise ValueError(f"{label}: got has shape {got.shape} but expected has shape {expected.shape}; "
+                         "compare arrays of the same shape (no broadcasting)")
+    return got, expected
+
+
+def _fmt_tol(tol: float) -> str:
+    exponent = np.log10(tol)
+    return f"1e{round(exponent)}" if abs(exponent - round(exponent)) < 1e-9 else f"{tol:.1e}"
+
+
+def agree(label: str, got, expected, tol: float = 1e-12, relative: bool = False) -> None:
+    r"""Check that two computations of the same array agree up to rounding.
+
+    Parameters
+    ----------
+    label : str
+        What is compared, e.g. ``"prediction vs. brute force"``.
+    got, expected : array_like, same shape
+        The two computations. NaN anywhere fails.
+    tol : float
+        Bound on ``max |got - expected|`` (or on the relative difference,
+        ``max |got - expected| / max |expected|``, if ``relative``).
+    relative : bool
+        Compare relative to the largest ``|expected|``.
+
+    Raises
+    ------
+    AssertionError
+        If the difference reaches ``tol`` or an entry is not finite.
+    """
+    got, expected = _same_shape(label, got, expected)
+    if not (np.isfinite(got).all() and np.isfinite(expected).all()):
+        raise AssertionError(f"{label}: an entry is NaN or infinite")
+    diff = float(np.max(np.abs(got - expected), initial=0.0))
+    what = "max |difference|"
+    if relative:
+        scale = float(np.max(np.abs(expected), initial=0.0))
+        diff = diff / scale if scale > 0 else diff
+        what = "max relative difference"
+    if not diff < tol:
+        raise AssertionError(f"{label}: {what} is {diff:.2e}, not below {tol:.0e}")
+    print(f"{label}: {what} < {_fmt_tol(tol)}")
+
+
+def within(label: str, value, low: float, high: float, unit: str = "") -> None:
+    """Check that every entry of ``value`` lies in ``[low, high]``; print the range seen.
+
+    Parameters
+    ----------
+    label : str
+        What is checked.
+    value : array_like
+        Number(s) to check; NaN fails.
+    low, high : float
+        The closed interval.
+    unit : str
+        Appended to the printed numbers, e.g. ``" m"``.
+    """
+    value = np.asarray(value, dtype=float)
+    if not low <= high:
+        raise ValueError(f"low, high: expected low <= high, got {low!r} > {high!r}")
+    if np.isnan(value).any():
+        raise AssertionError(f"{label}: a value is NaN")
+    if value.min() < low or value.max() > high:
+        raise AssertionError(f"{label}: values from {value.min():.4g} to {value.max():.4g}{unit}, "
+                             f"outside [{low:.4g}, {high:.4g}]{unit}")
+    print(f"{label}: in [{low:.4g}, {high:.4g}]{unit}")
+
+
+def mean_se(values, axis: int = 0):
+    r"""Sample mean of independent values and its standard error.
+
+    Parameters
+    ----------
+    values : array_like, shape (M, ...)
+        ``M`` >= 2 independent draws along ``axis``.
+    axis : int
+        The axis of the draws.
+
+    Returns
+    -------
+    mean, se : ndarray, shape (...)
+        The mean and :math:`s / \sqrt M`, with ``s`` the sample standard deviation.
+    """
+    values = np.asarray(values, dtype=float)
+    M = values.shape[axis]
+    if M < 2:
+        raise ValueError(f"values: expected at least 2 draws along axis {axis}, got {M}")
+    return values.mean(axis=axis), values.std(axis=axis, ddof=1) / np.sqrt(M)
+
+
+def _in_se(label, gap, se):
+    """Largest |gap| / se; an entry with se = 0 must match exactly."""
+    gap, se = np.abs(np.asarray(gap, dtype=float)), np.asarray(se, dtype=float)
+    if np.isnan(gap).any():
+        raise AssertionError(f"{label}: an estimate is NaN")
+    exact = se == 0
+    if (gap[exact] > 0).any():
+        raise AssertionError(f"{label}: an entry with standard error 0 (nothing random) differs "
+                             f"from its exact value by {gap[exact].max():.3g}")
+    return float(np.max(np.where(exact, 0.0, gap / np.where(exact, 1.0, se)), initial=0.0))
+
+
+def _report(label, worst, k, z, what):
+    if not worst <= z:
+        raise AssertionError(f"{label}: {what} is {worst:.1f} standard errors from the exact value; "
+                             f"a correct result exceeds {z:.1f} SE with probability < {ALPHA:.0e}")
+    print(f"{label}: within {worst:.1f} SE of the exact value (limit {z:.1f} SE, {k} entries)")
+
+
+def mc_mean(label: str, values, expected) -> None:
+    r"""Check a Monte Carlo mean against its exact value.
+
+    Parameters
+    ----------
+    label : str
+        What is compared.
+    values : array_like, shape (M, ...)
+        ``M`` independent draws of a quantity whose exact mean is ``expected``.
+    expected : array_like, shape (...)
+        The exact mean.
+
+    Notes
+    -----
+    Each entry's SE is estimated from the draws (:func:`mean_se`); the limit is
+    :func:`z_limit` of the number of entries.
+    """
+    mean, se = mean_se(values)
+    mean, expected = _same_shape(label, mean, expected)
+    k = max(mean.size, 1)
+    z = z_limit(k)
+    _report(label, _in_se(label, mean - expected, se), k, z, "a sample mean")
+
+
+def mc_moments(label: str, draws, mean, cov) -> None:
+    r"""Check the sample mean and covariance of Gaussian draws against theory.
+
+    Parameters
+    ----------
+    label : str
+        What is compared.
+    draws : array_like, shape (M, d)
+        ``M`` independent draws.
+    mean : array_like, shape (d,)
+        The exact mean.
+    cov : array_like, shape (d, d)
+        The exact covariance :math:`P`.
+
+    Notes
+    -----
+    The SE of the sample mean's entry ``i`` is :math:`\sqrt{P_{ii}/M}`; that of
+    the sample covariance's entry ``(i, j)`` is
+    :math:`\sqrt{(P_{ii} P_{jj} + P_{ij}^2)/M}` (exact for Gaussian draws).
+    The limit is :func:`z_limit` of ``d + d (d + 1) / 2`` entries.
+    """
+    draws = np.asarray(draws, dtype=float)
+    if draws.ndim != 2:
+        raise ValueError(f"draws: expected shape (M, d), got {draws.shape}")
+    M, d = draws.shape
+    mean = np.asarray(mean, dtype=float)
+    cov = np.asarray(cov, dtype=float)
+    if mean.shape != (d,) or cov.shape != (d, d):
+        raise ValueError(f"mean, cov: expected shapes ({d},) and ({d}, {d}) for draws of shape {draws.shape}, "
+                         f"got {mean.shape} and {cov.shape}")
+    diag = np.diag(cov)
+    iu = np.triu_indices(d)
+    gaps = np.concatenate([draws.mean(axis=0) - mean, (np.atleast_2d(np.cov(draws.T)) - cov)[iu]])
+    ses = np.concatenate([np.sqrt(diag / M), np.sqrt((np.outer(diag, diag) + cov**2) / M)[iu]])
+    k = d + len(iu[0])
+    _report(label, _in_se(label, gaps, ses), k, z_limit(k), "a sample mean or covariance entry")
+
+
+def mc_frequencies(label: str, draws, probs) -> None:
+    r"""Check how often each category was drawn against its exact probability.
+
+    Parameters
+    ----------
+    label : str
+        What is compared.
+    draws : array_like of int, shape (M,)
+        ``M`` independent draws of a category in ``0 .. K-1``.
+    probs : array_like, shape (K,)
+        The exact probabilities.
+
+    Notes
+    -----
+    The SE of a frequency is the binomial :math:`\sqrt{p (1 - p) / M}`; a
+    category of probability 0 (or 1) must be drawn never (always).
+    """
+    draws = np.asarray(draws)
+    probs = np.asarray(probs, dtype=float)
+    if draws.ndim != 1 or not np.issubdtype(draws.dtype, np.integer):
+        raise ValueError(f"draws: expected a 1-D array of integer categories, got shape {draws.shape}, "
+                         f"dtype {draws.dtype}")
+    if probs.ndim != 1 or draws.size and (draws.min() < 0 or draws.max() >= probs.size):
+        raise ValueError(f"draws: expected categories in 0..{probs.size - 1} (the length of probs), "
+                         f"got {draws.min()}..{draws.max()}")
+    M = draws.size
+    freq = np.bincount(draws, minlength=probs.size) / M
+    se = np.sqrt(probs * (1 - probs) / M)
+    k = probs.size
+    _report(label, _in_se(label, freq - probs, se), k, z_limit(k), "a frequency")

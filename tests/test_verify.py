@@ -1,0 +1,75 @@
+"""bf.verify: each check passes on a correct result and fails on a wrong one.
+
+The references are independent of the code under test: exact values set by
+hand, and draws from numpy's generators whose laws are known.
+"""
+
+import numpy as np
+import pytest
+
+import bayesfilt as bf
+from statistics import NormalDist
+
+
+def test_z_limit_is_the_two_sided_normal_quantile_with_a_union_bound():
+    # Phi(3.8906) = 1 - 0.5e-4 (tables); with k entries alpha is split k ways
+    assert abs(bf.verify.z_limit(1) - 3.8906) < 1e-4
+    assert abs(bf.verify.z_limit(100) - NormalDist().inv_cdf(1 - 0.5e-6)) < 1e-12
+    with pytest.raises(ValueError, match="k"):
+        bf.verify.z_limit(0)
+    with pytest.raises(ValueError, match="alpha"):
+        bf.verify.z_limit(1, alpha=2.0)
+
+
+def test_agree_passes_within_tolerance_and_fails_beyond(capsys):
+    bf.verify.agree("same", [1.0, 2.0], [1.0, 2.0 + 1e-14])
+    assert capsys.readouterr().out == "same: max |difference| < 1e-12\n"
+    with pytest.raises(AssertionError, match="differ.*1.00e-06"):
+        bf.verify.agree("differ", [1.0], [1.0 + 1e-6])
+    with pytest.raises(AssertionError, match="NaN"):
+        bf.verify.agree("nan", [np.nan], [np.nan])
+    bf.verify.agree("relative", [1e6], [1e6 + 1e-5], tol=1e-10, relative=True)
+    with pytest.raises(ValueError, match=r"shape \(2,\).*shape \(3,\)"):
+        bf.verify.agree("shapes", [1.0, 2.0], [1.0, 2.0, 3.0])
+
+
+def test_within():
+    bf.verify.within("in", [0.2, 0.5], 0.0, 1.0)
+    with pytest.raises(AssertionError, match="outside"):
+        bf.verify.within("out", [0.2, 1.5], 0.0, 1.0)
+    with pytest.raises(AssertionError):
+        bf.verify.within("nan", [np.nan], 0.0, 1.0)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_mc_moments_accepts_correct_draws_and_rejects_a_wrong_covariance(seed):
+    rng = np.random.default_rng(seed)
+    cov = np.array([[2.0, 0.6], [0.6, 0.5]])
+    mean = np.array([1.0, -1.0])
+    draws = rng.multivariate_normal(mean, cov, size=20_000)
+    bf.verify.mc_moments("right", draws, mean, cov)
+    with pytest.raises(AssertionError, match="standard errors"):
+        bf.verify.mc_moments("wrong", draws, mean, cov * 1.1)   # 10 % off: ~10 SE at M = 20 000
+
+
+def test_mc_mean_and_zero_se_entries():
+    rng = np.random.default_rng(3)
+    values = np.column_stack([rng.exponential(2.0, 50_000), np.zeros(50_000)])
+    bf.verify.mc_mean("right", values, [2.0, 0.0])
+    with pytest.raises(AssertionError, match="standard error 0"):
+        bf.verify.mc_mean("constant entry wrong", values, [2.0, 0.1])
+    with pytest.raises(AssertionError):
+        bf.verify.mc_mean("mean wrong", values, [2.1, 0.0])
+
+
+def test_mc_frequencies():
+    rng = np.random.default_rng(4)
+    probs = np.array([0.5, 0.3, 0.2, 0.0])
+    draws = rng.choice(4, size=100_000, p=probs)
+    bf.verify.mc_frequencies("right", draws, probs)
+    with pytest.raises(AssertionError, match="standard error 0"):
+        bf.verify.mc_frequencies("impossible cell drawn", np.append(draws, 3), probs)
+    with pytest.raises(AssertionError):
+        bf.verify.mc_frequencies("wrong law", draws, np.array([0.45, 0.35, 0.2, 0.0]))
+    with pytest.raises(ValueError, match="draws"):
+        bf.verify.mc_frequencies("float draws", draws.astype(float), probs)
