@@ -79,10 +79,11 @@ from typing import NamedTuple
 import numpy as np
 from scipy import linalg as sla
 from scipy.linalg.lapack import dposv as _dposv
+from scipy.linalg.lapack import dtrtrs as _dtrtrs
 
 from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_square, as_vector,
                       require_finite)
-from .gaussian import _logpdf_rows
+from .gaussian import LOG_2PI, _logpdf_rows
 from .models import LinearGaussian
 
 __all__ = [
@@ -194,27 +195,28 @@ def _gain_and_joseph(P, C, R, eye_n):
     PCt = P @ C.T
     # S = C P C^T + R
     S = C @ PCt + R
-    if not np.isfinite(S).all():
-        raise ValueError(S_OVERFLOW)
     if P.ndim == 2:
         # S = L L^T and S K^T = C P (so K = P C^T S^{-1}) in one LAPACK call, dposv:
         # a solve with the Cholesky factor, never an inverse of S
         L, Kt, info = _dposv(S, PCt.T, lower=1)
-        if info != 0:
-            raise ValueError(S_NOT_PD)
     else:
         try:
-            L = np.linalg.cholesky(S)
+            L, info = np.linalg.cholesky(S), 0
         except np.linalg.LinAlgError:
-            raise ValueError(S_NOT_PD) from None
-        # K = P C^T S^{-1}: solve S K^T = C P
-        Kt = np.linalg.solve(S, PCt.mT)
+            L, info = S, 1
+        else:
+            # K = P C^T S^{-1}: solve S K^T = C P
+            Kt = np.linalg.solve(S, PCt.mT)
     # The pivot L_ii^2 is the variance of measurement component i given the components
     # before it. S is numerically singular when that is at the rounding level of S_ii
     # itself. Each pivot is compared with its own diagonal entry, not with the largest
     # one, so that components measured in very different units are not rejected.
-    if (L.diagonal(0, -2, -1) ** 2 <= S.shape[-1] * _EPS * S.diagonal(0, -2, -1)).any():
-        raise ValueError(S_NOT_PD)
+    # Written as "every pivot is safely positive", so that a NaN fails it too.
+    safe = L.diagonal(0, -2, -1) ** 2 > S.shape[-1] * _EPS * S.diagonal(0, -2, -1)
+    if info != 0 or not safe.all():
+        # The factorisation reads the lower triangle of S, and a NaN or inf there makes
+        # it fail or leaves a NaN or inf pivot: an overflow is always caught here.
+        raise ValueError(S_NOT_PD if np.isfinite(S).all() else S_OVERFLOW)
     K = Kt.mT
     IKC = eye_n - K @ C
     # P_{t|t} = (I - K C) P (I - K C)^T + K R K^T   (Joseph form, see update)
@@ -231,8 +233,11 @@ def _correct(x, P, r, C, R, eye_n):
     K, S, L, P_post = _gain_and_joseph(P, C, R, eye_n)
     # x_{t|t} = x_{t|t-1} + K r
     x_post = x + K @ r
-    # log N(r; 0, S), with the Cholesky factor of S
-    loglik = float(_logpdf_rows(r[None, :], L)[0])
+    # log N(r; 0, S) = -(z^T z + log det S + m log 2 pi) / 2 with the Cholesky factor
+    # S = L L^T already at hand: z = L^{-1} r (a triangular solve, LAPACK dtrtrs) and
+    # log det S = 2 sum_i log L_ii
+    z = _dtrtrs(L, r, lower=1)[0]
+    loglik = -0.5 * float(z @ z + 2.0 * np.log(L.diagonal()).sum() + r.shape[0] * LOG_2PI)
     return x_post, P_post, K, r, S, loglik
 
 
