@@ -1,0 +1,359 @@
+r"""Build the course website into ``build/site/``: offline, warnings as errors, notebooks not executed.
+
+Usage (from the repository root, with the site's dependencies installed)::
+
+    pip install -r requirements.txt -r requirements-site.txt
+    python tools/build_site.py            # or: make site
+    python -m http.server -d build/site   # then open http://localhost:8000
+                                          # (or open build/site/index.html directly)
+
+What it does:
+
+1. stages ``site/`` (the Sphinx configuration, the landing page, the CSS)
+   into ``build/site-src/``;
+2. writes the **student edition** of the chapters there with
+   ``tools/make_student_edition.py`` (exercise solutions replaced by stubs,
+   every other stored output kept as it is), and puts a box under each
+   chapter's title with a link to download that notebook, a Binder launch
+   link and a note on running it locally;
+3. takes the notation page from the README's ``## Notation`` section, the
+   set-up commands from its ``## Set-up`` section and the instructor's
+   guide from ``INSTRUCTORS.md`` (links into the repository are pointed at
+   the chapter pages or at GitHub), and writes one API page per
+   ``bayesfilt`` module (autodoc + numpydoc, every public name);
+4. runs Sphinx (myst-nb with execution off, sphinx-book-theme, MathJax 3
+   from ``sphinx-mathjax-offline``) with ``-W --keep-going``: any warning,
+   e.g. an unresolved reference, fails the build.
+
+The notebooks are rendered with their stored outputs, which strict nbval
+keeps current, so nothing is executed and the build needs no kernel.
+
+The Binder and GitHub links name the repository ``owner/name``: taken from
+``--repository``, else the ``GITHUB_REPOSITORY`` variable (set by GitHub
+Actions), else the ``origin`` remote if it is on GitHub, else the
+placeholder ``OWNER/bayesfilt``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+from urllib.parse import quote
+
+ROOT = Path(__file__).resolve().parents[1]
+SITE_SRC = ROOT / "site"
+STAGE = ROOT / "build" / "site-src"
+OUT = ROOT / "build" / "site"
+DOCTREES = ROOT / "build" / "site-doctrees"
+CHAPTER_GLOB = "[0-9][0-9]_*.ipynb"
+PLACEHOLDER_REPOSITORY = "OWNER/bayesfilt"
+
+MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "particle", "resampling", "plotting",
+           "checks", "checks.ch01", "checks.ch02", "checks.ch03", "checks.ch04", "checks.ch05",
+           "checks.ch06")
+
+
+class SiteError(RuntimeError):
+    """Something the site cannot be built from (a missing README section, a failed step)."""
+
+
+# --- repository and links ------------------------------------------------------------------
+
+
+def repository_name(given: str | None = None) -> str:
+    """GitHub ``owner/name`` for the Binder and source links (see the module docstring)."""
+    if given:
+        return given
+    if os.environ.get("GITHUB_REPOSITORY"):
+        return os.environ["GITHUB_REPOSITORY"]
+    try:
+        url = subprocess.run(["git", "remote", "get-url", "origin"], cwd=ROOT, capture_output=True,
+                             text=True, check=False).stdout.strip()
+    except OSError:
+        url = ""
+    match = re.search(r"github\.com[:/]([^/]+/[^/]+?)(?:\.git)?$", url)
+    return match.group(1) if match else PLACEHOLDER_REPOSITORY
+
+
+def binder_url(repository: str, branch: str, notebook: str) -> str:
+    """mybinder.org link that opens ``notebooks/<notebook>`` of the repository in JupyterLab.
+
+    Binder builds its environment from the repository's ``requirements.txt``.
+    """
+    return (f"https://mybinder.org/v2/gh/{repository}/{branch}"
+            f"?labpath={quote('notebooks/' + notebook, safe='')}")
+
+
+def github_url(repository: str, branch: str, path: str) -> str:
+    return f"https://github.com/{repository}/blob/{branch}/{path}"
+
+
+# --- pieces taken from the README and INSTRUCTORS.md ----------------------------------------
+
+
+def markdown_section(text: str, title_pattern: str, source: str) -> str:
+    """The body of the ``## <title>`` section of a markdown text (up to the next ``## ``).
+
+    ``title_pattern`` is a regular expression matched against the heading text.
+    """
+    lines = text.splitlines()
+    in_fence = False
+    start = None
+    for k, line in enumerate(lines):
+        if line.lstrip().startswith("```"):
+            in_fence = not in_fence
+        if in_fence:
+            continue
+        if line.startswith("## "):
+            if start is not None:
+                return "\n".join(lines[start:k]).strip() + "\n"
+            if re.fullmatch(title_pattern, line[3:].strip()):
+                start = k + 1
+    if start is None:
+        raise SiteError(f"{source} has no '## ' section matching {title_pattern!r}; the site "
+                        f"takes that section from it (see tools/build_site.py)")
+    return "\n".join(lines[start:]).strip() + "\n"
+
+
+LINK = re.compile(r"(?<!!)\[(?P<text>[^\]]*)\]\((?P<target>[^)\s]+)\)")
+
+
+def rewrite_links(text: str, docs: dict[str, str], repository: str, branch: str,
+                  base: str = "") -> str:
+    """Point the relative links of a repository markdown file at the site or at GitHub.
+
+    ``docs`` maps a repository path (e.g. ``notebooks/01_x.ipynb``) to the site
+    document that shows it (e.g. ``chapters/01_x.ipynb``); ``base`` is the
+    folder of the markdown file in the repository. Other relative links go
+    to the file on GitHub; absolute URLs and anchors stay.
+    """
+
+    def replace(match: re.Match) -> str:
+        target = match.group("target")
+        if re.match(r"^[a-z][a-z0-9+.-]*:", target) or target.startswith("#"):
+            return match.group(0)
+        path, _, anchor = target.partition("#")
+        repo_path = os.path.normpath(os.path.join(base, path)).replace(os.sep, "/")
+        if repo_path in docs:
+            new = docs[repo_path] + (f"#{anchor}" if anchor else "")
+        else:
+            new = github_url(repository, branch, repo_path) + (f"#{anchor}" if anchor else "")
+        return f"[{match.group('text')}]({new})"
+
+    out, in_fence = [], False
+    for line in text.splitlines(keepends=True):
+        if line.lstrip().startswith("```"):
+            in_fence = not in_fence
+        out.append(line if in_fence else LINK.sub(replace, line))
+    return "".join(out)
+
+
+# --- the chapters ----------------------------------------------------------------------------
+
+
+def run_box(name: str, download: str, repository: str, branch: str) -> str:
+    """The markdown of the box under a chapter's title: download, Binder, run locally."""
+    return "\n".join([
+        "```{admonition} Run this chapter",
+        ":class: tip run-this-chapter",
+        "",
+        f"{{download}}`Download this notebook <{download}>` (the student edition shown here: "
+        f"the exercises are stubs for you to fill in) ·",
+        f"[Launch it on Binder]({binder_url(repository, branch, name)}) "
+        f"(opens the repository's notebook, with the solutions, in JupyterLab) ·",
+        f"[see it on GitHub]({github_url(repository, branch, 'notebooks/' + name)})",
+        "",
+        "**Run it locally:** with Python 3.11 or newer, from a clone of the repository, "
+        "`pip install -r requirements.txt && jupyter lab notebooks/`, "
+        "or put the downloaded notebook in the clone's `notebooks/` folder. "
+        "Then *Run All*: each exercise's check says \"Not attempted yet\" until you write an answer.",
+        "```",
+        "",
+    ])
+
+
+def title_cell_index(cells: list[dict]) -> int:
+    """Index of the first markdown cell with a level-1 heading (0 if there is none)."""
+    for index, cell in enumerate(cells):
+        if cell.get("cell_type") == "markdown":
+            if any(line.startswith("# ") for line in _source(cell).splitlines()):
+                return index
+    return 0
+
+
+def _source(cell: dict) -> str:
+    source = cell.get("source", "")
+    return "".join(source) if isinstance(source, list) else source
+
+
+def stage_chapters(repository: str, branch: str, docs: dict[str, str]) -> list[Path]:
+    """Write the student edition into the stage, one page per chapter (with the run box)."""
+    student = STAGE / "student-notebooks"
+    result = subprocess.run([sys.executable, str(ROOT / "tools" / "make_student_edition.py"),
+                             str(student)], cwd=ROOT, capture_output=True, text=True, check=False)
+    if result.returncode != 0:
+        raise SiteError("tools/make_student_edition.py failed:\n" + result.stdout + result.stderr)
+    notebooks = sorted(student.glob(CHAPTER_GLOB))
+    if not notebooks:
+        raise SiteError(f"no chapter notebooks {CHAPTER_GLOB} in notebooks/")
+    chapters = STAGE / "chapters"
+    chapters.mkdir()
+    pages = []
+    for path in notebooks:
+        nb = json.loads(path.read_text(encoding="utf-8"))
+        for cell in nb["cells"]:
+            if cell.get("cell_type") == "markdown":
+                cell["source"] = rewrite_links(_source(cell), docs, repository, branch, "notebooks")
+        box = {"cell_type": "markdown", "metadata": {}, "id": "site-run-this-chapter",
+               "source": run_box(path.name, f"../student-notebooks/{path.name}", repository, branch)}
+        nb["cells"].insert(title_cell_index(nb["cells"]) + 1, box)
+        page = chapters / path.name
+        page.write_text(json.dumps(nb, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+        pages.append(page)
+    with zipfile.ZipFile(STAGE / "_generated" / "bayesfilt-student-notebooks.zip", "w",
+                         zipfile.ZIP_DEFLATED) as archive:
+        for path in notebooks:
+            archive.write(path, f"bayesfilt-student-notebooks/{path.name}")
+    return pages
+
+
+# --- the API pages ---------------------------------------------------------------------------
+
+
+def public_names(module) -> list[str]:
+    """The public names of a module: its ``__all__``, then any other public function defined in it."""
+    import inspect
+
+    names = list(getattr(module, "__all__", []))
+    for name, obj in vars(module).items():
+        if (not name.startswith("_") and name not in names and inspect.isfunction(obj)
+                and obj.__module__ == module.__name__):
+            names.append(name)
+    return names
+
+
+def api_page(module_name: str) -> str:
+    """reStructuredText of one module's reference page: its docstring and every public name."""
+    import importlib
+    import inspect
+
+    full = f"bayesfilt.{module_name}"
+    module = importlib.import_module(full)
+    title = f"``bf.{module_name}``"
+    lines = [title, "=" * len(title), "", f".. automodule:: {full}", "   :no-members:", ""]
+    for name in public_names(module):
+        obj = getattr(module, name)
+        if inspect.isclass(obj):
+            # members inherited from the library's own (private) base classes are shown, tuple's are not
+            lines += [f".. autoclass:: {full}.{name}", "   :members:", "   :undoc-members:",
+                      "   :inherited-members: tuple, object, dict", ""]
+        elif callable(obj):
+            lines += [f".. autofunction:: {full}.{name}", ""]
+        else:
+            lines += [f".. autodata:: {full}.{name}", "   :no-value:", ""]
+    return "\n".join(lines)
+
+
+def stage_api() -> None:
+    api = STAGE / "api"
+    api.mkdir()
+    for module_name in MODULES:
+        (api / f"{module_name}.rst").write_text(api_page(module_name), encoding="utf-8")
+    toc = "\n".join(f"   {m}" for m in MODULES)
+    (api / "index.rst").write_text(
+        "The ``bayesfilt`` reference\n===========================\n\n"
+        ".. automodule:: bayesfilt\n   :no-members:\n\n"
+        "One page per module. Every public function and class is listed with its parameters "
+        "and their shapes, from the numpydoc docstrings of the library (version "
+        f"|release|).\n\n.. toctree::\n   :maxdepth: 1\n\n{toc}\n", encoding="utf-8")
+
+
+# --- the build -------------------------------------------------------------------------------
+
+
+def stage(repository: str, branch: str) -> None:
+    if STAGE.exists():
+        shutil.rmtree(STAGE)
+    shutil.copytree(SITE_SRC, STAGE)
+    (STAGE / "_generated").mkdir(exist_ok=True)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    notebooks = sorted((ROOT / "notebooks").glob(CHAPTER_GLOB))
+    docs = {f"notebooks/{p.name}": f"chapters/{p.name}" for p in notebooks}
+    docs.update({"INSTRUCTORS.md": "instructors.md", "README.md": "index.md"})
+    # Files in _generated/ are included from pages one level up: links relative to the stage.
+    (STAGE / "_generated" / "notation.md").write_text(
+        rewrite_links(markdown_section(readme, r"Notation", "README.md"), docs, repository, branch),
+        encoding="utf-8")
+    (STAGE / "_generated" / "setup.md").write_text(
+        rewrite_links(markdown_section(readme, r"Set-up.*", "README.md"), docs, repository, branch),
+        encoding="utf-8")
+    instructors = (ROOT / "INSTRUCTORS.md").read_text(encoding="utf-8")
+    (STAGE / "instructors.md").write_text(rewrite_links(instructors, docs, repository, branch),
+                                          encoding="utf-8")
+    stage_chapters(repository, branch, docs)
+    stage_api()
+
+
+def build(repository: str | None = None, branch: str = "main", quiet: bool = False) -> Path:
+    """Stage and build the site; returns ``build/site``. Raises SiteError if Sphinx fails."""
+    repository = repository_name(repository)
+    if repository == PLACEHOLDER_REPOSITORY:
+        print(f"note: no GitHub repository known (no --repository, GITHUB_REPOSITORY or GitHub "
+              f"origin remote): the Binder and GitHub links use {PLACEHOLDER_REPOSITORY}",
+              file=sys.stderr)
+    stage(repository, branch)
+    if OUT.exists():
+        shutil.rmtree(OUT)
+    env = dict(os.environ, SITE_REPOSITORY=repository, SITE_BRANCH=branch,
+               BAYESFILT_ROOT=str(ROOT), MPLBACKEND="Agg")
+    command = [sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-n",
+               "-E", "-d", str(DOCTREES), str(STAGE), str(OUT)]
+    if quiet:
+        command.insert(3, "-q")
+    result = subprocess.run(command, cwd=ROOT, env=env, check=False)
+    if result.returncode != 0:
+        raise SiteError(f"sphinx-build failed (exit {result.returncode}); see the warnings above")
+    (OUT / ".nojekyll").write_text("", encoding="utf-8")  # GitHub Pages: serve _static/ etc. as is
+    return OUT
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="build_site.py",
+        description="Build the course website into build/site/ (offline; warnings are errors; "
+                    "the stored notebooks are rendered without being executed).",
+        epilog="Needs: pip install -r requirements.txt -r requirements-site.txt. "
+               "View: open build/site/index.html, or python -m http.server -d build/site.")
+    parser.add_argument("--repository", metavar="OWNER/NAME",
+                        help="GitHub repository for the Binder and source links (default: "
+                             "$GITHUB_REPOSITORY, else the origin remote)")
+    parser.add_argument("--branch", default="main", help="branch for those links (default: main)")
+    parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
+    args = parser.parse_args(argv)
+    try:
+        import myst_nb  # noqa: F401
+        import sphinx  # noqa: F401
+    except ImportError as exc:
+        print(f"error: the site's dependencies are missing ({exc}); install them with\n"
+              f"  pip install -r requirements.txt -r requirements-site.txt", file=sys.stderr)
+        return 2
+    start = time.perf_counter()
+    try:
+        out = build(args.repository, args.branch, args.quiet)
+    except SiteError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(f"built the site in {time.perf_counter() - start:.0f} s: {out.relative_to(ROOT)}/index.html")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
