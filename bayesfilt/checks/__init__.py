@@ -30,24 +30,33 @@ This module holds the generic comparisons; the chapter modules
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import functools
 import importlib
+import inspect
 import numbers
+import os
 import re
+import signal
+import threading
 import warnings
 from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
 __all__ = ["Feedback", "compare_array", "compare_number", "compare_function", "compare_choice",
-           "NOT_ATTEMPTED", "CORRECT", "INCORRECT"]
+           "exercise", "time_limit", "NOT_ATTEMPTED", "CORRECT", "INCORRECT", "TIME_LIMIT"]
 
 NOT_ATTEMPTED = "not attempted yet"
 CORRECT = "correct"
 INCORRECT = "not yet"
 
 _CHAPTERS = ("ch01", "ch02", "ch03", "ch04", "ch05", "ch06")
+
+#: Seconds a student's function may run on one test input before the check stops it. The
+#: environment variable BAYESFILT_CHECK_TIME_LIMIT overrides it (a test sets it low).
+TIME_LIMIT = float(os.environ.get("BAYESFILT_CHECK_TIME_LIMIT", "10"))
 
 
 class Feedback(NamedTuple):
@@ -97,6 +106,198 @@ def _never_raises(what: str):
                               f"check its type and shape against the statement.")
         return wrapper
     return decorate
+
+
+
+# ---------------------------------------------------------------------------
+# The engine every exercise runs through (``exercise``): student functions guarded
+# (time limit, arguments and chapter variables changed in place), feedback for any
+# failure, and the nbgrader hook.
+# ---------------------------------------------------------------------------
+
+class _Stop(BaseException):
+    """A student's function misbehaved (endless loop, in-place change): the check ends here.
+
+    A BaseException, so that no ``except Exception`` of a chapter helper swallows it.
+    """
+
+    def __init__(self, message: str):
+        super().__init__(message)
+        self.message = message
+
+
+_timer_active = threading.local()
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None, message: str):
+    """Stop the block with ``_Stop(message)`` after ``seconds`` (POSIX, main thread only).
+
+    Uses ``SIGALRM`` through ``signal.setitimer``, the handler and the timer restored on the
+    way out, so the kernel stays usable. Elsewhere (Windows, a thread) the block runs
+    without a limit; a long C call (one huge numpy operation) ends before the signal is seen.
+    """
+    usable = (seconds is not None and seconds > 0 and hasattr(signal, "setitimer")
+              and threading.current_thread() is threading.main_thread()
+              and not getattr(_timer_active, "on", False))
+    if not usable:
+        yield
+        return
+
+    def stop(signum, frame):
+        raise _Stop(message)
+
+    previous = signal.signal(signal.SIGALRM, stop)
+    _timer_active.on = True
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+        _timer_active.on = False
+
+
+def _same(a, b) -> bool:
+    """Are two snapshots equal (arrays elementwise, NaN equal to NaN; containers recursively)?"""
+    try:
+        if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+            a, b = np.asarray(a), np.asarray(b)
+            return a.shape == b.shape and a.dtype == b.dtype and bool(
+                np.array_equal(a, b, equal_nan=a.dtype.kind in "fc"))
+        if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+            return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+        if isinstance(a, dict) and isinstance(b, dict):
+            return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+        if hasattr(a, "__dataclass_fields__") and type(a) is type(b):
+            return all(_same(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
+        result = a == b
+        return bool(result) if isinstance(result, (bool, np.bool_)) else True
+    except Exception:  # noqa: BLE001 - an object we cannot compare counts as unchanged
+        return True
+
+
+def _watched_globals(fun) -> dict:
+    """The chapter's arrays (and named tuples / dataclasses of arrays) that ``fun`` refers to."""
+    code, space = getattr(fun, "__code__", None), getattr(fun, "__globals__", None)
+    if code is None or not isinstance(space, dict):
+        return {}
+    names, stack = set(), [code]
+    while stack:
+        c = stack.pop()
+        names.update(c.co_names)
+        stack.extend(k for k in c.co_consts if inspect.iscode(k))
+    watched = {}
+    for name in sorted(names):
+        obj = space.get(name)
+        if isinstance(obj, np.ndarray) or (
+                (hasattr(obj, "_fields") or hasattr(obj, "__dataclass_fields__"))
+                and not isinstance(obj, type)):
+            watched[name] = obj
+    return watched
+
+
+def _restore(obj, old) -> None:
+    if isinstance(obj, np.ndarray) and obj.flags.writeable and obj.shape == old.shape:
+        obj[...] = old
+
+
+def _arg_names(fun, n: int) -> list[str]:
+    try:
+        names = [p.name for p in inspect.signature(fun).parameters.values()
+                 if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    except (TypeError, ValueError):
+        names = []
+    return (names + [f"argument {k + 1}" for k in range(len(names), n)])[:n]
+
+
+def guard(fun, name: str | None = None, limit: float | None = None):
+    """``fun`` wrapped for a check: a time limit per call, in-place changes detected.
+
+    A call that runs longer than ``limit`` seconds (default :data:`TIME_LIMIT`), that
+    changes one of its arguments in place, or that changes a chapter array it refers to
+    (``ys[40:50] = np.nan`` on the chapter's ``ys``) ends the whole check with a "Not yet"
+    naming the input; a changed chapter array is put back as it was.
+    """
+    name = name or getattr(fun, "__name__", "your function")
+    if name == "<lambda>":
+        name = "your function"
+    watched = _watched_globals(fun)
+
+    @functools.wraps(fun)
+    def guarded(*args, **kwargs):
+        try:
+            before = copy.deepcopy(args)
+        except Exception:  # noqa: BLE001 - an argument we cannot copy is not watched
+            before = None
+        chapter = {k: copy.deepcopy(v) for k, v in watched.items()}
+        seconds = TIME_LIMIT if limit is None else limit
+        with time_limit(seconds, f"your function {name} did not return within {seconds:g} s: "
+                                 f"an endless loop? (test input: {_describe_args(args)})"):
+            out = fun(*args, **kwargs)
+        if before is not None:
+            for arg, now, then in zip(_arg_names(fun, len(args)), args, before):
+                if not _same(now, then):
+                    alias = "y" if arg == "x" else "x"
+                    raise _Stop(
+                        f"{name} changes its argument {arg} in place ({arg} /= ..., {arg} -= ..., "
+                        f"{arg}[...] = ..., or {alias} = {arg}; {alias} += ...): the caller's array changes "
+                        f"too. Work on a copy ({alias} = np.array({arg}, dtype=float)) or write "
+                        f"{alias} = {arg} + ... (test input: {_describe_args(before)}).")
+        for k, then in chapter.items():
+            if not _same(watched[k], then):
+                _restore(watched[k], then)
+                raise _Stop(f"{name} changes the chapter's variable {k} in place: the rest of "
+                            f"the chapter would see it changed. Work on a copy ({k}.copy()); the "
+                            f"check has put {k} back as it was.")
+        return out
+
+    return guarded
+
+
+def _graded(feedback: Feedback) -> Feedback:
+    """Under nbgrader (autograde or validate) an answer that is not correct fails its cell."""
+    if os.environ.get("NBGRADER_EXECUTION") and feedback.status != CORRECT:
+        raise AssertionError(repr(feedback))
+    return feedback
+
+
+def exercise(check: Callable) -> Callable:
+    """Make ``check`` an exercise: never raises, student functions guarded, graded by nbgrader.
+
+    Every callable answer is wrapped by :func:`guard`; any failure inside the check
+    becomes a "Not yet" (an endless loop, an in-place change, an unforeseen exception).
+    In a notebook the result is shown as the cell's output. When nbgrader autogrades or
+    validates (it sets ``NBGRADER_EXECUTION`` in the kernel's environment), an answer that
+    is not correct raises ``AssertionError`` with the same message, so the cell loses its
+    points; the check runs once either way.
+    """
+    if getattr(check, "_is_exercise", False):
+        return check
+
+    @functools.wraps(check)
+    def run(*answers, **kwargs):
+        guarded = [guard(a) if callable(a) and not isinstance(a, type) else a for a in answers]
+        try:
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                feedback = check(*guarded, **kwargs)
+        except _Stop as stop:
+            feedback = _wrong(stop.message)
+        except Exception as exc:  # noqa: BLE001 - a check never raises
+            feedback = _wrong(f"the check could not read your answer ({type(exc).__name__}: "
+                              f"{exc}); check its type and shape against the statement.")
+        return _graded(feedback)
+
+    run._is_exercise = True
+    return run
+
+
+def register(namespace: dict) -> None:
+    """Turn every ``exercise_N`` of a chapter module into an :func:`exercise` (call it last)."""
+    for key, value in list(namespace.items()):
+        if re.fullmatch(r"exercise_\d+", key) and callable(value):
+            namespace[key] = exercise(value)
 
 
 def _frozen(a) -> np.ndarray:
@@ -216,10 +417,30 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
     if a.ndim == 2 and a.shape[0] == a.shape[1] and np.allclose(e, e.T) and not np.allclose(a, a.T):
         return _wrong(f"{what} should be a covariance, which is symmetric; yours is not "
                       f"(max |A - A^T| = {np.max(np.abs(a - a.T)):.3g}).")
+    k = _rounded_to(a, e)
+    if k is not None:
+        return _more_decimals(what, k)
     wrong = ~np.isclose(a, e, rtol=rtol, atol=atol)
     where = tuple(int(i) for i in np.argwhere(wrong)[0])
     return _wrong(f"{what} has the right shape but {int(wrong.sum())} of {a.size} entries "
                   f"differ from the reference (the first at index {where}).")
+
+
+def _rounded_to(a, e) -> int | None:
+    """The number of decimals k (2-6) if ``a`` is the reference ``e`` rounded to k decimals."""
+    a, e = np.asarray(a, dtype=float), np.asarray(e, dtype=float)
+    if a.shape != e.shape:
+        return None
+    for k in range(2, 7):
+        r = np.round(e, k)
+        if np.allclose(a, r, rtol=1e-12, atol=1e-12) and not np.allclose(r, e, rtol=1e-12, atol=0):
+            return k
+    return None
+
+
+def _more_decimals(what: str, k: int) -> Feedback:
+    return _wrong(f"{what} looks rounded to {k} decimal{'s' if k != 1 else ''}: the check needs "
+                  f"more than that; give more decimals (do not round, keep the full float).")
 
 
 def _is_simple_factor(ratio: float) -> bool:
@@ -261,6 +482,9 @@ def compare_number(answer, expected: float, what: str = "your answer", rtol: flo
         ratio = a / e
         if ratio > 0 and _is_simple_factor(ratio):
             return _wrong(f"{what} is off by a simple factor (2, 1/2 or 2 pi?).")
+    k = _rounded_to(a, e)
+    if k is not None:
+        return _more_decimals(what, k)
     return _wrong(f"{what} is too {'large' if a > e else 'small'}.")
 
 

@@ -285,8 +285,12 @@ def _door_run(transition, likelihood, order: str = "predict, update", normalise:
     """bel(open) after each of the pushes, computed right or in one of the plausible wrong ways."""
     b = np.array(DOOR_START, dtype=float)
     out = []
-    for _ in range(DOOR_PUSHES):
-        if order == "predict, update":
+    for step in range(DOOR_PUSHES):
+        if order == "update first":                              # bf.bayes.bayes_filter's order
+            if step > 0:
+                b = bayes.predict(b, transition)
+            b = bayes.update(b, likelihood).posterior
+        elif order == "predict, update":
             if transposed:
                 b = np.asarray(transition) @ b                 # sum over j of T[i, j] b_j
             elif normalise:
@@ -349,6 +353,11 @@ def exercise_2(answer) -> Feedback:
         (_door_run(push, closed, order="update only"),
          "has no push in it: the belief only follows the readings. Predict with the push "
          "(door_transitions['push']) before each reading."),
+        (_door_run(push, closed, order="update first"),
+         "starts with a reading, not a push: bf.bayes.bayes_filter updates with its first "
+         "likelihood at t = 0, before any prediction, so bayes_filter([0.5, 0.5], push, "
+         "[door_sensor[1]] * 3) senses, pushes, senses, pushes, senses. Give it a likelihood of "
+         "ones at t = 0 (no_measurement, no reading yet) and keep posteriors[1:]."),
         (_door_run(push, closed, order="update, predict"),
          "reports the belief after the push that follows each reading: the push comes "
          "first, then the reading, and the answer is the posterior after each reading."),
@@ -648,3 +657,8 @@ def exercise_5(answer) -> Feedback:
     feedback = compare_number(float(a[1]), var, what=f"the variance in {what}", rtol=1e-4,
                               atol=ATOL_HAND)
     return _wrong(f"the mean in {what} is right; {feedback.message}")
+
+
+from . import register as _register  # noqa: E402
+
+_register(globals())

@@ -263,6 +263,9 @@ _GAIN_MISTAKES = [
      "S is computed without R: the innovation covariance is S = C P C^T + R, the predicted "
      "uncertainty of the measurement plus the sensor noise (without R the filter trusts the "
      "sensor as if it were perfect)."),
+    (lambda P, C, R: _gain(P, C, R, C @ P @ C.T - R),
+     "S is computed as C P C^T - R: the sensor noise adds uncertainty to the measurement, "
+     "S = C P C^T + R (a minus sign in S, not a constant factor)."),
     (lambda P, C, R: P @ C.T @ (C @ P @ C.T + R),
      "you multiply P C^T by S instead of by its inverse: K = P C^T S^{-1}."),
     (lambda P, C, R: _gain(P, C, R, R),
@@ -532,3 +535,8 @@ def exercise_5(correlated_gain) -> Feedback:
                               _correlated_cases(),
                               _correlated_reference, _CORRELATED_MISTAKES,
                               _correlated_exception_hint)
+
+
+from . import register as _register  # noqa: E402
+
+_register(globals())

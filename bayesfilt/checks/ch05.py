@@ -761,3 +761,8 @@ def exercise_5(answer) -> Feedback:
     return _wrong(f"{what} leaves out {_MODEL_HINTS[missing[0]]} If it does, y_t tells "
                   f"something about the new noise and the optimal proposal differs from the "
                   f"transition.")
+
+
+from . import register as _register  # noqa: E402
+
+_register(globals())

@@ -793,3 +793,8 @@ def exercise_4(answer) -> Feedback:
                              f"the cloud loses the vehicle; enough jitter keeps track, at the "
                              f"price of a covariance larger than the errors (roughening is "
                              f"artificial process noise).")
+
+
+from . import register as _register  # noqa: E402
+
+_register(globals())
