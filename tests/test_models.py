@@ -430,3 +430,57 @@ def test_time_varying_flag_is_checked():
 def test_state_names_given_as_a_string_are_refused():
     with pytest.raises(TypeError, match="state_names must be a tuple of strings"):
         small_model(state_names="ab")
+
+
+# --------------------------------------------------------------------------
+# Noise factors held by the model (computed once, when it is built)
+# --------------------------------------------------------------------------
+
+def test_a_model_cannot_change_so_its_held_factors_stay_valid():
+    import dataclasses
+
+    model = small_model()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        model.R = [[5.0]]
+    for name in ("Q", "R", "P0", "G"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(model, name)[0, 0] = 5.0
+    # a changed model is a new model, with its own factors: its densities use the new R
+    bigger = dataclasses.replace(model, R=[[5.0]])
+    x, y = np.array([[0.3, -0.2]]), np.array([1.0])
+    want = multivariate_normal(mean=bigger.C @ x[0], cov=5.0).logpdf(y)
+    np.testing.assert_allclose(bigger.measurement_logpdf(y, x), [want], rtol=1e-12)
+    # ... and its draws have the new covariance (the same z, scaled by sqrt(5 / 0.2))
+    ratio = (bigger.sample_measurement(np.random.default_rng(3), x) - bigger.C @ x[0]) / (
+        model.sample_measurement(np.random.default_rng(3), x) - model.C @ x[0])
+    np.testing.assert_allclose(ratio, np.sqrt(5.0 / 0.2), rtol=1e-12)
+
+
+def test_held_factors_give_the_model_covariances():
+    model = small_model()
+    GL = model._noise_gain_factor
+    np.testing.assert_allclose(GL @ GL.T, model.G @ model.Q @ model.G.T, rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(model._P0_factor @ model._P0_factor.T, model.P0, rtol=1e-14)
+    np.testing.assert_allclose(model._R_cholesky_inv @ model._R_cholesky, np.eye(1), rtol=1e-14)
+    # a singular G Q G^T (the damped particle's positions have no noise) has no Cholesky factor
+    assert bf.models.damped_particle()._GQGt_cholesky is None
+
+
+def test_densities_with_a_singular_noise_still_raise_a_clear_error():
+    # R singular: the model can be built and sampled, but p(y | x) has no density
+    model = LG(A=np.eye(2), C=np.eye(2), Q=np.eye(2), R=[[1.0, 1.0], [1.0, 1.0]],
+               m0=np.zeros(2), P0=np.eye(2))
+    assert model.sample_measurement(np.random.default_rng(0), np.zeros((3, 2))).shape == (3, 2)
+    with pytest.raises(ValueError, match=r"R must be positive definite, got smallest eigenvalue"):
+        model.measurement_logpdf([0.0, 0.0], np.zeros((3, 2)))
+    with pytest.raises(ValueError, match=r"G Q G\^T must be positive definite"):
+        bf.models.damped_particle().transition_logpdf(np.zeros((2, 4)), np.zeros((2, 4)))
+
+
+def test_transition_draws_of_a_scalar_model_are_the_mean_plus_sigma_z():
+    # np.dot with a 1 x 1 factor: the draw is f(x) + sqrt(Q) z, z the generator's normals in order
+    model = bf.models.ungm(process_var=10.0)
+    xs = np.linspace(-3.0, 3.0, 7)[:, None]
+    got = model.sample_transition(np.random.default_rng(5), xs, t=2)
+    z = np.random.default_rng(5).standard_normal((7, 1))
+    np.testing.assert_allclose(got, model.transition_mean(xs, t=2) + np.sqrt(10.0) * z, rtol=1e-14)

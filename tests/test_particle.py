@@ -336,3 +336,27 @@ def test_a_proposal_with_a_control_input_is_refused():
     with pytest.raises(ValueError, match="proposal: a Proposal receives no control input"):
         bf.particle.sis_step(model, np.random.default_rng(0), np.zeros((5, 2)), np.full(5, -np.log(5)),
                              [0.0], t=1, proposal=q, u=[1.0])
+
+
+class _BrokenLikelihood:
+    """UNGM whose log-likelihood is ``bad`` (NaN or +inf) for the particles above 0."""
+
+    def __init__(self, bad):
+        self.model, self.bad = bf.models.ungm(), bad
+        self.state_dim, self.obs_dim = 1, 1
+
+    def sample_initial(self, rng, size):
+        return self.model.sample_initial(rng, size)
+
+    def sample_transition(self, rng, xs, u=None, t=0):
+        return self.model.sample_transition(rng, xs, u, t)
+
+    def measurement_logpdf(self, y, xs):
+        return np.where(xs[:, 0] > 0, self.bad, self.model.measurement_logpdf(y, xs))
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_nan_or_infinite_log_likelihood_is_named_not_propagated(bad):
+    ys = np.ones((3, 1))
+    with pytest.raises(ValueError, match=r"step t = 0: a log-weight is NaN or \+inf"):
+        bf.particle.particle_filter(_BrokenLikelihood(bad), ys, 200, np.random.default_rng(0))
