@@ -368,11 +368,15 @@ def test_the_stub_keeps_the_indentation_of_the_markers():
     assert mse.student_source(source, None) == textwrap.dedent('''\
         def posterior(prior, likelihood):
             """Normalised product."""
-            unnorm = None  # your answer
             raise NotImplementedError("write this function")
         ''')
     # the stub is valid Python at that indentation
     compile(mse.student_source(source, None), "<stub>", "exec")
+
+
+def test_a_name_set_to_none_above_the_markers_is_not_repeated():
+    source = "# Exercise 2: your answer\nanswer_2 = None  # your answer\n### BEGIN SOLUTION\nanswer_2 = 3\n### END SOLUTION"
+    assert mse.student_source(source, 2) == "# Exercise 2: your answer\nanswer_2 = None  # your answer"
 
 
 def test_decorators_and_a_docstring_with_quotes_are_kept():

@@ -11,10 +11,14 @@ under the same name, changed in three ways only:
 
 * in every *answer cell* the solution between the nbgrader markers
   ``### BEGIN SOLUTION`` and ``### END SOLUTION`` (each alone on its line) is
-  replaced by a stub, at the markers' indentation: a ``def`` keeps its
-  signature and docstring and gets the body
-  ``raise NotImplementedError("Exercise N: write this function")``; every
-  other name the solution assigns becomes ``name = None  # your answer``.
+  replaced by a stub, at the markers' indentation. Markers inside a
+  function's body (after its signature and docstring, the layout nbgrader
+  needs too) give the body
+  ``raise NotImplementedError("Exercise N: write this function")``. Between
+  top-level markers, a ``def`` keeps its signature and docstring and gets
+  that body, and every other name the solution assigns becomes
+  ``name = None  # your answer``, unless the cell already sets it to None
+  above the markers.
   The number N comes from a ``# Exercise N`` comment in the cell, else from
   the ``### Exercise N`` heading above it. Code outside the markers stays;
 * the outputs and execution counts of the answer cells and of the *check
@@ -173,7 +177,7 @@ def _def_header(code: str, lines: list[str], node: ast.FunctionDef | ast.AsyncFu
                               f"of {node.name}()")  # unreachable for code that parses
 
 
-def stub(code: str, exercise: int | None = None) -> str:
+def stub(code: str, exercise: int | None = None, skip: set[str] | frozenset = frozenset()) -> str:
     """The student's stub for the (dedented) solution ``code``.
 
     Each top-level ``def`` keeps its decorators, signature and docstring and
@@ -194,7 +198,7 @@ def stub(code: str, exercise: int | None = None) -> str:
         raise StudentEditionError(f"line {exc.lineno} of the solution is not valid Python: "
                                   f"{exc.msg}") from None
     lines = code.splitlines(keepends=True)
-    out, seen = [], set()
+    out, seen = [], set(skip)
     for node in tree.body:
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             if node.name in seen:
@@ -263,10 +267,14 @@ def student_source(source: str, exercise: int | None = None) -> str:
             else:
                 raise StudentEditionError(
                     f"line {k + 1}: the solution is indented less than its markers")
-        try:
-            code = stub("".join(body), exercise)
-        except StudentEditionError as exc:
-            raise StudentEditionError(_shift_line(str(exc), begin + 1)) from None
+        if indent and _inside_def(lines, begin):
+            # the markers enclose a function's body: the student writes the body
+            code = _not_implemented(exercise) + "\n"
+        else:
+            try:
+                code = stub("".join(body), exercise, skip=_set_to_none(lines[:begin]))
+            except StudentEditionError as exc:
+                raise StudentEditionError(_shift_line(str(exc), begin + 1)) from None
         if not code and indent:
             code = _not_implemented(exercise) + "\n"  # a function body cannot be empty
         stubbed = [indent + line if line.strip() else line for line in code.splitlines(keepends=True)]
@@ -275,7 +283,23 @@ def student_source(source: str, exercise: int | None = None) -> str:
         out.extend(stubbed)
         pos = end + 1
     out.extend(lines[pos:])
-    return "".join(out)
+    result = "".join(out)
+    # a block that ended the cell and left no stub (its names set to None above): no blank tail
+    return result.rstrip("\n") if not source.endswith("\n") else result
+
+
+def _inside_def(lines: list[str], begin: int) -> bool:
+    """Is the (indented) marker at ``lines[begin]`` inside the body of a ``def``?"""
+    indent = len(_indent(lines[begin]))
+    for line in reversed(lines[:begin]):
+        if line.strip() and len(_indent(line)) < indent:
+            return bool(re.match(r"\s*(async\s+)?def\s", line))
+    return False
+
+
+def _set_to_none(lines: list[str]) -> set[str]:
+    """Names the cell already sets to None (``name = None``) above a solution block."""
+    return {m.group(1) for line in lines for m in [re.match(r"^(\w+) = None\b", line)] if m}
 
 
 def _shift_line(message: str, offset: int) -> str:

@@ -32,7 +32,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _not_attempted,
-               _wrong, compare_array, compare_choice, _frozen, _matches)
+               _wrong, compare_array, compare_choice, _frozen, _matches, _combine, _not_written)
 from .. import bayes, gaussian, kalman, models
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
@@ -342,7 +342,15 @@ def _uniform_noise_gaps() -> tuple[float, ...]:
     model = models.LinearGaussian(**MODEL_1D)
     ys = models.simulate(model, STEPS_1D, np.random.default_rng(SEED_1D)).ys
     kf = kalman.kalman_filter(model, ys)
-    a, A, C, R = HALF_WIDTH_4, model.A[0, 0], model.C[0, 0], model.R[0, 0]
+    return tuple(float(g) for g in np.abs(_uniform_grid_means(HALF_WIDTH_4) - kf.means[:, 0]))
+
+
+@functools.lru_cache(maxsize=4)
+def _uniform_grid_means(a: float) -> np.ndarray:
+    """Section 7's grid filter with w_t uniform on [-a, a]: the 10 posterior means."""
+    model = models.LinearGaussian(**MODEL_1D)
+    ys = models.simulate(model, STEPS_1D, np.random.default_rng(SEED_1D)).ys
+    A, C, R = model.A[0, 0], model.C[0, 0], model.R[0, 0]
     grid = GRID_1D
 
     def normal_pdf(x, mean, var):
@@ -355,7 +363,33 @@ def _uniform_noise_gaps() -> tuple[float, ...]:
                             for y in ys[:, 0]])
     prior_0 = normal_pdf(grid, model.m0[0], model.P0[0, 0])
     result = bayes.bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods)
-    return tuple(float(g) for g in np.abs(result.posteriors @ grid - kf.means[:, 0]))
+    return _frozen(result.posteriors @ grid)
+
+
+def _grid_means_feedback(fun) -> Feedback:
+    what = "grid_means_uniform"
+    if fun is None or fun is Ellipsis:
+        return _not_attempted(what)
+    if not callable(fun):
+        return _wrong(f"{what} must be a function (def ...), got {type(fun).__name__}.")
+    for k, a in enumerate((HALF_WIDTH_4, 1.0)):
+        try:
+            out = fun(a)
+        except NotImplementedError:
+            return _not_written(what)
+        except Exception as exc:  # noqa: BLE001 - feedback, not a crash
+            return _wrong(f"{what} fails on test input {k + 1} (a = {a:.4g}): "
+                          f"{type(exc).__name__}: {exc}")
+        if out is None:
+            return _wrong(f"{what} returned None on test input {k + 1} (a = {a:.4g}); did you "
+                          f"forget `return`?")
+        fb = compare_array(out, _uniform_grid_means(a), f"the output for a = {a:.4g}",
+                           rtol=1e-6, atol=1e-9)
+        if fb.status != CORRECT:
+            return _wrong(f"{what}: {fb.message} (the 10 posterior means, m, posteriors @ grid, of "
+                          f"bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods) with "
+                          f"the density 1/(2a) on |x_next - 0.9 x_prev| <= a.)")
+    return Feedback(CORRECT, f"{what} is right.")
 
 
 def _step_feedback(agree) -> Feedback:
@@ -387,8 +421,22 @@ def _step_feedback(agree) -> Feedback:
     return _wrong(f"{what}: {message}")
 
 
+_MEANING_SYNONYMS = {
+    "best linear estimator": "best linear estimate", "best linear": "best linear estimate",
+    "the best linear estimate": "best linear estimate", "blue": "best linear estimate",
+    "best linear unbiased estimate": "best linear estimate",
+    "best linear unbiased estimator": "best linear estimate",
+    "linear mmse": "best linear estimate", "lmmse": "best linear estimate",
+    "conditional mean estimate": "conditional mean", "the conditional mean": "conditional mean",
+    "posterior mean": "conditional mean", "mmse": "conditional mean",
+}
+
+
 def _meaning_feedback(meaning) -> Feedback:
     what = "meaning_4"
+    if isinstance(meaning, str):
+        said = " ".join(meaning.strip().lower().replace("-", " ").split())
+        meaning = _MEANING_SYNONYMS.get(said, meaning)
     feedback = compare_choice(meaning, "best linear estimate", OPTIONS_4, what)
     if feedback.status != INCORRECT or not isinstance(meaning, str):
         return feedback
@@ -405,7 +453,7 @@ def _meaning_feedback(meaning) -> Feedback:
     return feedback
 
 
-def exercise_4(agree, meaning) -> Feedback:
+def exercise_4(agree, meaning, grid_means_uniform=None) -> Feedback:
     """Check ``agree_4`` (the step at which grid and Kalman posterior means agree) and ``meaning_4``.
 
     The reference step is computed by running section 7's grid filter with the
@@ -413,8 +461,12 @@ def exercise_4(agree, meaning) -> Feedback:
     depend on the seed (only x_0's update involves no transition). A wrong step
     is told the size of the disagreement there (t = 1 gets a hint: predictions
     compared, or steps counted from 1); the choice among ``OPTIONS_4`` gets a hint
-    specific to the option chosen.
+    specific to the option chosen. ``grid_means_uniform(a)``, when given, is compared
+    with the grid filter's 10 posterior means at a = sqrt(1.5) and a = 1.
     """
+    if grid_means_uniform is not None:
+        return _combine([("grid_means_uniform", _grid_means_feedback(grid_means_uniform)),
+                         ("agree_4 and meaning_4", exercise_4.__wrapped__(agree, meaning))])
     step, choice = _step_feedback(agree), _meaning_feedback(meaning)
     parts = (("agree_4", step), ("meaning_4", choice))
     if step.status == CORRECT and choice.status == CORRECT:
