@@ -9,11 +9,23 @@ re-executes every notebook under strict nbval. Two settings cannot live in
   relative path in ``addopts`` breaks ``pytest`` started in ``notebooks/``
   or ``pytest /path/to/course`` started elsewhere. It is set here as an
   absolute path, unless the command line names another sanitiser;
-* with pytest-xdist (not a course dependency), ``pytest -n 2`` would deal
-  the cells of one notebook out to several workers, each with its own
-  kernel, so a cell would run without the variables of the cells before it.
-  When ``-n`` is given without a ``--dist`` mode, ``--dist loadfile`` is
-  chosen: every notebook (and every test file) stays on one worker.
+* with pytest-xdist, ``pytest -n 2`` would deal the cells of one notebook
+  out to several workers, each with its own kernel, so a cell would run
+  without the variables of the cells before it. When ``-n`` is given
+  without a ``--dist`` mode (e.g. with ``-o addopts=""``), ``--dist
+  loadfile`` is chosen: every notebook (and every test file) stays on one
+  worker.
+
+``addopts`` asks for ``--numprocesses=auto --dist=loadfile`` (``-n auto``:
+every CPU, one worker each; see ``pyproject.toml``). With xdist switched off (``pytest -p
+no:xdist``, or not installed) those two options would be unknown and
+pytest would stop; :func:`pytest_addoption` then accepts them and nothing
+is distributed.
+
+Under xdist every worker is a pytest process of its own, configured from
+the controller's options: the controller sets the sanitiser's absolute path
+before the workers start, and each worker's ``pytest_configure`` leaves a
+path it was given alone.
 """
 
 from __future__ import annotations
@@ -51,6 +63,18 @@ def keep_notebooks_whole(option) -> None:
     if (getattr(option, "numprocesses", None) and getattr(option, "dist", None) == "no"
             and not getattr(option, "distload", False)):
         option.dist = "loadfile"
+
+
+def pytest_addoption(parser, pluginmanager):
+    """Accept xdist's ``-n`` and ``--dist`` of ``addopts`` when xdist is not loaded."""
+    if pluginmanager.has_plugin("xdist"):
+        return
+    group = parser.getgroup("xdist-absent", "pytest-xdist is not loaded (-p no:xdist)")
+    # (addopts spells -n as --numprocesses: pytest reserves one-letter options for itself)
+    group.addoption("--numprocesses", dest="numprocesses", default=None,
+                    help="ignored: pytest-xdist is not loaded, the tests run in this process")
+    group.addoption("--dist", dest="dist", default="no",
+                    help="ignored: pytest-xdist is not loaded")
 
 
 @pytest.hookimpl(wrapper=True)

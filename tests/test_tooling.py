@@ -39,29 +39,37 @@ def _load(name: str, path: Path):
 course_conftest = _load("_course_conftest", ROOT / "conftest.py")
 runner = _load("_run_notebooks", ROOT / "tools" / "run_notebooks.py")
 
-# A pytest plugin for the subprocesses below: after collection it does what
-# nbval does when a notebook starts (open the sanitiser named by the option,
-# from the working directory) and prints what it found, plus xdist's mode.
-PROBE = '''
-import json
+class _Probe:
+    """A pytest plugin for the runs below: after collection it does what nbval does when a
+    notebook starts (open the sanitiser named by the option, from the working directory) and
+    records what it found, plus xdist's mode, the collected items and any collection error."""
 
+    def __init__(self):
+        self.found: dict = {}
+        self.items: list[str] = []
+        self.errors: list[str] = []
 
-def pytest_collection_finish(session):
-    from nbval.plugin import IPyNbFile
+    def pytest_collectreport(self, report):
+        if report.failed:
+            self.errors.append(f"{report.nodeid}: {report.longreprtext[-2000:]}")
 
-    option = session.config.option
-    files = {item.parent for item in session.items if isinstance(item.parent, IPyNbFile)}
-    patterns = {}
-    for nb_file in files:
-        nb_file.setup_sanitize_files()  # what nbval's IPyNbFile.setup does, without a kernel
-        patterns.update(nb_file.sanitize_patterns)
-    print("PROBE " + json.dumps({
-        "sanitize_with": option.nbval_sanitize_with,
-        "notebooks": len(files),
-        "patterns": sorted(patterns.values()),
-        "dist": getattr(option, "dist", None),
-    }))
-'''
+    def pytest_collection_finish(self, session):
+        from nbval.plugin import IPyNbFile
+
+        option = session.config.option
+        files = {item.parent for item in session.items if isinstance(item.parent, IPyNbFile)}
+        patterns = {}
+        for nb_file in files:
+            nb_file.setup_sanitize_files()  # what nbval's IPyNbFile.setup does, without a kernel
+            patterns.update(nb_file.sanitize_patterns)
+        self.items = [item.nodeid for item in session.items]
+        self.found = {
+            "sanitize_with": option.nbval_sanitize_with,
+            "notebooks": len(files),
+            "patterns": sorted(patterns.values()),
+            "dist": getattr(option, "dist", None),
+            "xdist": session.config.pluginmanager.has_plugin("xdist"),
+        }
 
 
 def _smallest_notebook() -> Path:
@@ -70,15 +78,19 @@ def _smallest_notebook() -> Path:
     return notebooks[0]
 
 
-def _run_pytest(args, cwd: Path, probe_dir: Path) -> tuple[subprocess.CompletedProcess, dict]:
-    (probe_dir / "course_probe.py").write_text(PROBE)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(probe_dir)] + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else [])))
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-p", "course_probe", *args],
-                          cwd=cwd, env=env, capture_output=True, text=True, timeout=120)
-    lines = [line for line in proc.stdout.splitlines() if line.startswith("PROBE ")]
-    probe = json.loads(lines[-1][len("PROBE "):]) if lines else {}
-    return proc, probe
+def _run_pytest(args, cwd: Path, monkeypatch) -> tuple[int, _Probe]:
+    """``pytest *args`` started in ``cwd``, run in this process (pytest.main).
+
+    A fresh Python would prove nothing more: pytest.main builds a new
+    configuration from the command line and the working directory (rootdir,
+    pyproject.toml's addopts, the root conftest), as the ``pytest`` command
+    does, and collection imports nothing that is not already imported here.
+    It saves the 3-8 s a fresh interpreter takes to start and import nbval.
+    """
+    probe = _Probe()
+    monkeypatch.chdir(cwd)
+    code = pytest.main(list(args), plugins=[probe])
+    return int(code), probe
 
 
 def _sanitize_replacements() -> list[str]:
@@ -93,24 +105,23 @@ def _sanitize_replacements() -> list[str]:
 # --------------------------------------------------------------------------
 
 @pytest.mark.parametrize("where", ["outside", "tests"])
-def test_pytest_finds_the_sanitiser_from_any_folder(tmp_path, where):
+def test_pytest_finds_the_sanitiser_from_any_folder(tmp_path, monkeypatch, where):
     """From a folder that is not the root, collection works and nbval can open sanitize.cfg."""
     notebook = _smallest_notebook()
     if where == "outside":
         cwd, args = tmp_path, [str(ROOT / "tests" / "test_plotting.py"), str(notebook)]
     else:
         cwd, args = ROOT / "tests", ["test_plotting.py", os.path.relpath(notebook, ROOT / "tests")]
-    proc, probe = _run_pytest([*args, "--collect-only", "-q"], cwd, tmp_path)
-    out = proc.stdout + proc.stderr
-    assert proc.returncode == 0, out
-    assert "ERROR" not in proc.stdout and not re.search(r"\d+ errors?\b", proc.stdout), out
-    assert probe, f"the probe plugin did not run:\n{out}"
-    assert probe["notebooks"] == 1, out
-    assert Path(probe["sanitize_with"]).is_absolute(), probe
+    code, probe = _run_pytest([*args, "--collect-only", "-q"], cwd, monkeypatch)
+    assert code == 0 and not probe.errors, probe.errors
+    assert probe.found, "the probe plugin did not run"
+    assert probe.found["notebooks"] == 1, probe.found
+    assert Path(probe.found["sanitize_with"]).is_absolute(), probe.found
     # Each rule of sanitize.cfg was loaded, exactly as nbval loads them.
-    assert probe["patterns"] == _sanitize_replacements() != []
+    assert probe.found["patterns"] == _sanitize_replacements() != []
     # Some unit tests and some cells were collected.
-    assert "test_plotting.py::" in proc.stdout and ".ipynb::Cell 0" in proc.stdout, out
+    assert any("test_plotting.py::" in i for i in probe.items), probe.items
+    assert any(i.endswith(".ipynb::Cell 0") for i in probe.items), probe.items
 
 
 def test_sanitiser_is_not_a_relative_path_in_addopts():
@@ -165,12 +176,24 @@ def test_no_xdist_no_change():
     assert vars(option) == {"nbval_sanitize_with": None}
 
 
-def test_xdist_run_uses_loadfile(tmp_path):
-    pytest.importorskip("xdist", reason="pytest-xdist is not a course dependency")
-    proc, probe = _run_pytest([str(_smallest_notebook()), "-n", "2", "--collect-only", "-q"],
-                              tmp_path, tmp_path)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert probe["dist"] == "loadfile"
+@pytest.mark.parametrize("args", [
+    [],                                 # plain pytest: addopts asks for -n auto --dist loadfile
+    ["-n", "2", "-o", "addopts=--nbval -p no:cacheprovider"],  # -n alone: conftest picks loadfile
+])
+def test_xdist_run_uses_loadfile(tmp_path, monkeypatch, args):
+    pytest.importorskip("xdist", reason="pytest-xdist is not installed")
+    code, probe = _run_pytest([str(_smallest_notebook()), *args, "--collect-only", "-q"],
+                              tmp_path, monkeypatch)
+    assert code == 0 and not probe.errors, probe.errors
+    assert probe.found["dist"] == "loadfile"
+
+
+def test_without_xdist_the_addopts_still_parse(tmp_path, monkeypatch):
+    """``pytest -p no:xdist`` (or pytest-xdist absent): -n/--dist of addopts are accepted, unused."""
+    code, probe = _run_pytest([str(_smallest_notebook()), "-p", "no:xdist", "--collect-only", "-q"],
+                              tmp_path, monkeypatch)
+    assert code == 0 and not probe.errors, probe.errors
+    assert probe.found["notebooks"] == 1 and probe.found["xdist"] is False, probe.found
 
 
 # --------------------------------------------------------------------------
