@@ -42,17 +42,15 @@ nb_merge_streams = True
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
 
-exclude_patterns = ["student-notebooks/**", "_generated/**", "**.ipynb_checkpoints"]
+exclude_patterns = ["student-notebooks/**", "_generated/**", "_snapshot/**", "**.ipynb_checkpoints"]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb", ".rst": "restructuredtext"}
 
 # Every unresolved cross-reference is an error (the build runs with -W). The docstrings may
 # name numpy/scipy/filterpy objects, which are not documented here (no network, so no
-# intersphinx): those render as code without a link.
 nitpicky = True
-nitpick_ignore_regex = [
-    (r"py:.*", r"(numpy|np|scipy|filterpy|matplotlib|plt)(\..*)?"),
-    (r"py:.*", r"(int|float|str|bool|tuple|list|dict|callable|None|optional|ndarray|array_like)"),
-]
+# intersphinx): those render as code without a link (see ``external_as_code`` below).
+EXTERNAL = re.compile(r"^(numpy|np|scipy|filterpy|matplotlib|mpl|plt)(\..*)?$"
+                      r"|^(int|float|str|bool|tuple|list|dict|callable|None|optional|ndarray|array_like)$")
 
 autodoc_member_order = "bysource"
 autodoc_typehints = "none"       # the numpydoc Parameters sections give the types and shapes
@@ -127,6 +125,15 @@ def resolve_bf_alias(app, env, node, contnode):
                                           node["reftarget"], node, contnode)
 
 
+def external_as_code(app, env, node, contnode):
+    """A reference to numpy, scipy, matplotlib or filterpy: plain code, not a broken link."""
+    if node.get("refdomain") != "py" or not EXTERNAL.match(node.get("reftarget", "")):
+        return None
+    contnode["classes"] = [c for c in contnode.get("classes", []) if c != "xref"] + ["external-name"]
+    return contnode
+
+
 def setup(app):
     app.connect("missing-reference", resolve_bf_alias)
+    app.connect("missing-reference", external_as_code)
     app.connect("doctree-resolved", link_api_names)

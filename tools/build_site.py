@@ -56,9 +56,6 @@ DOCTREES = ROOT / "build" / "site-doctrees"
 CHAPTER_GLOB = "[0-9][0-9]_*.ipynb"
 PLACEHOLDER_REPOSITORY = "OWNER/bayesfilt"
 
-MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "particle", "resampling", "plotting",
-           "checks", "checks.ch01", "checks.ch02", "checks.ch03", "checks.ch04", "checks.ch05",
-           "checks.ch06")
 
 
 class SiteError(RuntimeError):
@@ -180,13 +177,22 @@ def run_box(name: str, download: str, repository: str, branch: str) -> str:
     ])
 
 
-def title_cell_index(cells: list[dict]) -> int:
-    """Index of the first markdown cell with a level-1 heading (0 if there is none)."""
+def insert_after_title(cells: list[dict], box: dict) -> list[dict]:
+    """``cells`` with ``box`` right under the first level-1 heading (split out of its cell).
+
+    Without a level-1 heading the box goes first.
+    """
     for index, cell in enumerate(cells):
-        if cell.get("cell_type") == "markdown":
-            if any(line.startswith("# ") for line in _source(cell).splitlines()):
-                return index
-    return 0
+        if cell.get("cell_type") != "markdown":
+            continue
+        lines = _source(cell).splitlines(keepends=True)
+        for k, line in enumerate(lines):
+            if line.startswith("# "):
+                head = dict(cell, source="".join(lines[:k + 1]))
+                rest = "".join(lines[k + 1:])
+                tail = [dict(cell, source=rest, id=f"{cell.get('id', index)}-rest")] if rest.strip() else []
+                return cells[:index] + [head, box] + tail + cells[index + 1:]
+    return [box] + cells
 
 
 def _source(cell: dict) -> str:
@@ -194,17 +200,47 @@ def _source(cell: dict) -> str:
     return "".join(source) if isinstance(source, list) else source
 
 
-def stage_chapters(repository: str, branch: str, docs: dict[str, str]) -> list[Path]:
-    """Write the student edition into the stage, one page per chapter (with the run box)."""
-    student = STAGE / "student-notebooks"
-    result = subprocess.run([sys.executable, str(ROOT / "tools" / "make_student_edition.py"),
-                             str(student)], cwd=ROOT, capture_output=True, text=True, check=False)
+def snapshot_notebooks(stage_dir: Path) -> Path:
+    """Copy the chapter notebooks and the student-edition tool into ``stage_dir/_snapshot``.
+
+    The whole site is made from this one copy, so a notebook saved while the site builds
+    (by someone re-executing it) cannot mix two versions into one site. A copy caught in the
+    middle of a write is not valid JSON: it is taken again. Returns the snapshot's root.
+    """
+    snap = stage_dir / "_snapshot"
+    (snap / "notebooks").mkdir(parents=True)
+    (snap / "tools").mkdir()
+    shutil.copy2(ROOT / "tools" / "make_student_edition.py", snap / "tools")
+    for path in sorted((ROOT / "notebooks").glob(CHAPTER_GLOB)):
+        for attempt in range(20):
+            data = path.read_bytes()
+            try:
+                json.loads(data)
+                break
+            except ValueError:
+                if attempt == 19:
+                    raise SiteError(f"{path.relative_to(ROOT)} is not a valid notebook (JSON)") from None
+                time.sleep(0.5)
+        (snap / "notebooks" / path.name).write_bytes(data)
+    return snap
+
+
+def stage_chapters(stage_dir: Path, repository: str, branch: str, docs: dict[str, str]) -> list[Path]:
+    """Write the student edition into the stage, one page per chapter (with the run box).
+
+    The student edition is made by ``tools/make_student_edition.py OUTPUT_DIR``, run from the
+    snapshot, whose ``notebooks/`` folder is then the one it reads.
+    """
+    snap = snapshot_notebooks(stage_dir)
+    student = stage_dir / "student-notebooks"
+    result = subprocess.run([sys.executable, str(snap / "tools" / "make_student_edition.py"),
+                             str(student)], cwd=snap, capture_output=True, text=True, check=False)
     if result.returncode != 0:
         raise SiteError("tools/make_student_edition.py failed:\n" + result.stdout + result.stderr)
     notebooks = sorted(student.glob(CHAPTER_GLOB))
     if not notebooks:
         raise SiteError(f"no chapter notebooks {CHAPTER_GLOB} in notebooks/")
-    chapters = STAGE / "chapters"
+    chapters = stage_dir / "chapters"
     chapters.mkdir()
     pages = []
     for path in notebooks:
@@ -214,11 +250,11 @@ def stage_chapters(repository: str, branch: str, docs: dict[str, str]) -> list[P
                 cell["source"] = rewrite_links(_source(cell), docs, repository, branch, "notebooks")
         box = {"cell_type": "markdown", "metadata": {}, "id": "site-run-this-chapter",
                "source": run_box(path.name, f"../student-notebooks/{path.name}", repository, branch)}
-        nb["cells"].insert(title_cell_index(nb["cells"]) + 1, box)
+        nb["cells"] = insert_after_title(nb["cells"], box)
         page = chapters / path.name
         page.write_text(json.dumps(nb, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
         pages.append(page)
-    with zipfile.ZipFile(STAGE / "_generated" / "bayesfilt-student-notebooks.zip", "w",
+    with zipfile.ZipFile(stage_dir / "_generated" / "bayesfilt-student-notebooks.zip", "w",
                          zipfile.ZIP_DEFLATED) as archive:
         for path in notebooks:
             archive.write(path, f"bayesfilt-student-notebooks/{path.name}")
@@ -262,12 +298,31 @@ def api_page(module_name: str) -> str:
     return "\n".join(lines)
 
 
-def stage_api() -> None:
-    api = STAGE / "api"
+def api_modules() -> list[str]:
+    """The public modules of bayesfilt, as ``kalman``, ``checks.ch02``, ...
+
+    The order of ``bayesfilt._MODULES`` (the course's order) first, then every other public
+    module or submodule found in the package, alphabetically.
+    """
+    import importlib
+    import pkgutil
+
+    sys.path.insert(0, str(ROOT))
+    package = importlib.import_module("bayesfilt")
+    found = [info.name.removeprefix("bayesfilt.")
+             for info in pkgutil.walk_packages(package.__path__, "bayesfilt.")
+             if not any(part.startswith("_") for part in info.name.split("."))]
+    ordered = [m for m in getattr(package, "_MODULES", ()) if m in found]
+    return ordered + sorted(m for m in found if m not in ordered)
+
+
+def stage_api(stage_dir: Path) -> None:
+    api = stage_dir / "api"
     api.mkdir()
-    for module_name in MODULES:
+    modules = api_modules()
+    for module_name in modules:
         (api / f"{module_name}.rst").write_text(api_page(module_name), encoding="utf-8")
-    toc = "\n".join(f"   {m}" for m in MODULES)
+    toc = "\n".join(f"   {m}" for m in modules)
     (api / "index.rst").write_text(
         "The ``bayesfilt`` reference\n===========================\n\n"
         ".. automodule:: bayesfilt\n   :no-members:\n\n"
@@ -279,50 +334,57 @@ def stage_api() -> None:
 # --- the build -------------------------------------------------------------------------------
 
 
-def stage(repository: str, branch: str) -> None:
-    if STAGE.exists():
-        shutil.rmtree(STAGE)
-    shutil.copytree(SITE_SRC, STAGE)
-    (STAGE / "_generated").mkdir(exist_ok=True)
+def stage(stage_dir: Path, repository: str, branch: str) -> None:
+    """Write the Sphinx source of the site into ``stage_dir`` (emptied first)."""
+    if stage_dir.exists():
+        shutil.rmtree(stage_dir)
+    shutil.copytree(SITE_SRC, stage_dir)
+    (stage_dir / "_generated").mkdir(exist_ok=True)
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     notebooks = sorted((ROOT / "notebooks").glob(CHAPTER_GLOB))
     docs = {f"notebooks/{p.name}": f"chapters/{p.name}" for p in notebooks}
     docs.update({"INSTRUCTORS.md": "instructors.md", "README.md": "index.md"})
     # Files in _generated/ are included from pages one level up: links relative to the stage.
-    (STAGE / "_generated" / "notation.md").write_text(
+    (stage_dir / "_generated" / "notation.md").write_text(
         rewrite_links(markdown_section(readme, r"Notation", "README.md"), docs, repository, branch),
         encoding="utf-8")
-    (STAGE / "_generated" / "setup.md").write_text(
+    (stage_dir / "_generated" / "setup.md").write_text(
         rewrite_links(markdown_section(readme, r"Set-up.*", "README.md"), docs, repository, branch),
         encoding="utf-8")
     instructors = (ROOT / "INSTRUCTORS.md").read_text(encoding="utf-8")
-    (STAGE / "instructors.md").write_text(rewrite_links(instructors, docs, repository, branch),
+    (stage_dir / "instructors.md").write_text(rewrite_links(instructors, docs, repository, branch),
                                           encoding="utf-8")
-    stage_chapters(repository, branch, docs)
-    stage_api()
+    stage_chapters(stage_dir, repository, branch, docs)
+    stage_api(stage_dir)
 
 
-def build(repository: str | None = None, branch: str = "main", quiet: bool = False) -> Path:
-    """Stage and build the site; returns ``build/site``. Raises SiteError if Sphinx fails."""
+def build(repository: str | None = None, branch: str = "main", quiet: bool = False,
+          out: Path = OUT, stage_dir: Path = STAGE, doctrees: Path = DOCTREES,
+          capture: bool = False) -> Path:
+    """Stage and build the site into ``out`` (default ``build/site``); returns ``out``.
+
+    Raises SiteError if a step or Sphinx fails (Sphinx's warnings are printed).
+    """
     repository = repository_name(repository)
     if repository == PLACEHOLDER_REPOSITORY:
         print(f"note: no GitHub repository known (no --repository, GITHUB_REPOSITORY or GitHub "
               f"origin remote): the Binder and GitHub links use {PLACEHOLDER_REPOSITORY}",
               file=sys.stderr)
-    stage(repository, branch)
-    if OUT.exists():
-        shutil.rmtree(OUT)
+    stage(stage_dir, repository, branch)
+    if out.exists():
+        shutil.rmtree(out)
     env = dict(os.environ, SITE_REPOSITORY=repository, SITE_BRANCH=branch,
                BAYESFILT_ROOT=str(ROOT), MPLBACKEND="Agg")
     command = [sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-n",
-               "-E", "-d", str(DOCTREES), str(STAGE), str(OUT)]
+               "-E", "-d", str(doctrees), str(stage_dir), str(out)]
     if quiet:
         command.insert(3, "-q")
-    result = subprocess.run(command, cwd=ROOT, env=env, check=False)
+    result = subprocess.run(command, cwd=ROOT, env=env, check=False, capture_output=capture, text=True)
     if result.returncode != 0:
-        raise SiteError(f"sphinx-build failed (exit {result.returncode}); see the warnings above")
-    (OUT / ".nojekyll").write_text("", encoding="utf-8")  # GitHub Pages: serve _static/ etc. as is
-    return OUT
+        details = (result.stdout or "") + (result.stderr or "") if capture else "see the warnings above"
+        raise SiteError(f"sphinx-build failed (exit {result.returncode}): {details}")
+    (out / ".nojekyll").write_text("", encoding="utf-8")  # GitHub Pages: serve _static/ etc. as is
+    return out
 
 
 def main(argv=None) -> int:
