@@ -4,6 +4,7 @@
 #   make notebooks  re-execute and save every notebook (after an edit)
 #   make bench      benchmarks against filterpy (and particles, if its venv exists)
 #   make student    write the student edition of every chapter into student/
+#   make site       build the course website into build/site/ (in its own .venv-site)
 VENV ?= .venv
 PYTHON ?= python3
 BIN := $(VENV)/bin
@@ -14,7 +15,7 @@ $(BIN)/.installed: requirements.txt pyproject.toml
 	$(BIN)/pip install -r requirements.txt
 	touch $@
 
-.PHONY: lab test notebooks bench student
+.PHONY: lab test notebooks bench student site
 lab: $(BIN)/.installed
 	$(BIN)/jupyter lab notebooks/
 
@@ -31,3 +32,8 @@ bench: $(BIN)/.installed
 
 student: $(BIN)/.installed
 	$(BIN)/python tools/make_student_edition.py student/ --force
+
+site:
+	test -x .venv-site/bin/python || $(PYTHON) -m venv .venv-site
+	.venv-site/bin/pip install --quiet -r requirements.txt -r requirements-site.txt
+	.venv-site/bin/python tools/build_site.py
