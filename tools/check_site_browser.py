@@ -148,6 +148,20 @@ def serve(site: Path) -> tuple[http.server.ThreadingHTTPServer, str]:
     return server, f"http://127.0.0.1:{server.server_address[1]}/"
 
 
+def _router(blocked: list[str], local_host: str):
+    """A route handler: local requests go through, every other one is aborted and recorded."""
+
+    def route(r):
+        parsed = urlparse(r.request.url)
+        if parsed.scheme in ("file", "data", "blob", "about") or parsed.netloc == local_host:
+            r.continue_()
+        else:
+            blocked.append(r.request.url)
+            r.abort()
+
+    return route
+
+
 def check_pages(pages: list[Path], site: Path, chromium: str, use_http: bool) -> int:
     from playwright.sync_api import sync_playwright
 
@@ -165,16 +179,8 @@ def check_pages(pages: list[Path], site: Path, chromium: str, use_http: bool) ->
             rel = page_path.resolve().relative_to(site.resolve()).as_posix()
             blocked, failed, js_errors = [], [], []
 
-            def route(r, blocked=blocked):
-                parsed = urlparse(r.request.url)
-                if parsed.scheme in ("file", "data", "blob", "about") or parsed.netloc == local_host:
-                    r.continue_()
-                else:
-                    blocked.append(r.request.url)
-                    r.abort()
-
             page = context.new_page()
-            page.route("**/*", route)
+            page.route("**/*", _router(blocked, local_host))
             page.on("requestfailed", lambda req, failed=failed: failed.append(
                 f"{req.url} ({req.failure})"))
             page.on("pageerror", lambda exc, js_errors=js_errors: js_errors.append(str(exc)))
@@ -197,10 +203,12 @@ def check_pages(pages: list[Path], site: Path, chromium: str, use_http: bool) ->
             problems += [f"JavaScript error: {e}" for e in js_errors]
             status = "FAIL" if problems else "PASS"
             failures += bool(problems)
-            print(f"{status} {rel}: {info['mathCount']} maths typeset"
+            typeset = info["mathCount"] - len(info["untypeset"])
+            print(f"{status} {rel}: {typeset}/{info['mathCount']} maths typeset"
                   f"{' by the local MathJax' if info['mathjax'] else ''}, "
-                  f"{len(info['images'])} images loaded, {len(info['overflows'])} overflows "
-                  f"(column {info['column']} px)", flush=True)
+                  f"{len(info['images']) - len(info['badImages'])}/{len(info['images'])} images "
+                  f"loaded, {len(info['overflows'])} overflows (column {info['column']} px)",
+                  flush=True)
             for problem in problems:
                 print(f"    - {problem}", flush=True)
         browser.close()
