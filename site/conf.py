@@ -40,7 +40,7 @@ nb_execution_mode = "off"
 nb_ipywidgets_js = {}           # no widget manager from a CDN (the notebooks store no widget state)
 nb_merge_streams = True
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
-myst_heading_anchors = 3
+myst_heading_anchors = 6
 
 exclude_patterns = ["student-notebooks/**", "_generated/**", "_snapshot/**", "**.ipynb_checkpoints"]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb", ".rst": "restructuredtext"}

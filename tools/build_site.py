@@ -169,9 +169,10 @@ def run_box(name: str, download: str, repository: str, branch: str) -> str:
         f"[see it on GitHub]({github_url(repository, branch, 'notebooks/' + name)})",
         "",
         "**Run it locally:** with Python 3.11 or newer, from a clone of the repository, "
-        "`pip install -r requirements.txt && jupyter lab notebooks/`, "
-        "or put the downloaded notebook in the clone's `notebooks/` folder. "
-        "Then *Run All*: each exercise's check says \"Not attempted yet\" until you write an answer.",
+        "`pip install -r requirements.txt && jupyter lab notebooks/` opens the chapters with their "
+        "solutions; the downloaded student edition runs in the same environment from any folder "
+        "(`jupyter lab` in the folder you saved it to). *Run All*: each exercise's check "
+        "says \"Not attempted yet\" until you write an answer.",
         "```",
         "",
     ])
