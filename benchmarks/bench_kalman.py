@@ -19,8 +19,12 @@ Run from the repository root:
 kalman_filter is one plain loop of the same kernels as bf.kalman.predict and
 bf.kalman.update, so every step is computed in full, whatever the data.
 
-Each timing is the best of a few repeats (time.perf_counter). Before timing,
-the script checks that both libraries give the same numbers.
+Each timing is the best of a few repeats (time.perf_counter); in part 1 the
+three loops are called in turn within each repeat, so that a burst of load
+on a shared machine hits them alike. Before timing, the script checks that
+both libraries give the same numbers. The load average is printed at the
+start and at the end, and which bayesfilt was imported (to time an older
+version, put its folder first on PYTHONPATH).
 """
 
 from __future__ import annotations
@@ -49,6 +53,21 @@ def best_time(fun, repeats=REPEATS):
         fun()
         best = min(best, time.perf_counter() - start)
     return best
+
+
+def best_times_interleaved(funs, repeats=REPEATS):
+    """Best time of each function, calling them in turn within each repeat."""
+    best = {name: np.inf for name in funs}
+    for _ in range(repeats):
+        for name, fun in funs.items():
+            start = time.perf_counter()
+            fun()
+            best[name] = min(best[name], time.perf_counter() - start)
+    return best
+
+
+def load_average():
+    return ", ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def compare(t_bf, t_other):
@@ -125,7 +144,9 @@ def main():
     print(f"machine: {os.cpu_count()} CPUs (nproc), {platform.machine()}, "
           f"{platform.system()} {platform.release()}")
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, scipy {scipy.__version__}, "
-          f"filterpy 2.0.0")
+          f"filterpy 2.0.0, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
+    print(f"bayesfilt imported from {os.path.dirname(bf.__file__)}")
+    print(f"load average (1, 5, 15 min) at start: {load_average()}")
     model = bf.models.damped_particle()
     rng = np.random.default_rng(2024)
 
@@ -139,9 +160,11 @@ def main():
         print(f"  {label}:")
         check_same(bf.kalman.kalman_filter(model, data), filterpy_run(model, data),
                    "kalman_filter")
-        t_bf = best_time(lambda: bf.kalman.kalman_filter(model, data))
-        t_fp_ll = best_time(lambda: filterpy_run(model, data, loglik=True), repeats=3)
-        t_fp = best_time(lambda: filterpy_run(model, data, loglik=False))
+        best = best_times_interleaved({
+            "bf": lambda: bf.kalman.kalman_filter(model, data),
+            "fp_ll": lambda: filterpy_run(model, data, loglik=True),
+            "fp": lambda: filterpy_run(model, data, loglik=False)})
+        t_bf, t_fp_ll, t_fp = best["bf"], best["fp_ll"], best["fp"]
         print(f"  bf.kalman.kalman_filter (log-likelihood included): {per_step(t_bf, T_LONG)}")
         print(f"  filterpy + log_likelihood (the same outputs):      {per_step(t_fp_ll, T_LONG)}"
               f"  -> {compare(t_bf, t_fp_ll)}")
@@ -178,6 +201,7 @@ def main():
     print(f"  bf batch with 2 % rows missing at random ({n_patterns} distinct patterns): "
           f"{t_mixed * 1e3:8.2f} ms ({t_fp_ll / t_mixed:.0f}x faster than filterpy + "
           f"log_likelihood, {t_fp / t_mixed:.0f}x without)")
+    print(f"\nload average (1, 5, 15 min) at end: {load_average()}")
 
 
 if __name__ == "__main__":
