@@ -256,6 +256,27 @@ def test_the_api_reference_lists_every_public_function_with_its_parameters(built
     assert checked >= 40, f"only {checked} public functions found: the inspection is broken"
 
 
+def test_chapter_pages_link_the_functions_they_name_to_the_api_reference(built):
+    linked = 0
+    for path in NOTEBOOKS:
+        html = (built / "chapters" / f"{path.stem}.html").read_text(encoding="utf-8")
+        named = set()
+        for cell in notebook(path)["cells"]:
+            if cell["cell_type"] == "markdown":
+                named |= set(re.findall(r"`bf\.([a-z_]+)\.([A-Za-z_]\w*)(?:\(\))?`", source(cell)))
+        for module_name, name in sorted(named):
+            try:
+                module = importlib.import_module(f"bayesfilt.{module_name}")
+            except ImportError:
+                continue
+            if not inspect.isfunction(getattr(module, name, None)):
+                continue
+            href = f'href="../api/{module_name}.html#bayesfilt.{module_name}.{name}"'
+            assert href in html, f"{path.stem}: `bf.{module_name}.{name}` is not linked to its API entry"
+            linked += 1
+    assert linked > 0, "no chapter names a bayesfilt function in its text: the test checks nothing"
+
+
 def test_maths_is_served_by_the_site_itself(built):
     mathjax = built / "_static" / "mathjax" / "tex-chtml.js"
     assert mathjax.is_file(), "MathJax is not in the build (_static/mathjax/tex-chtml.js)"
