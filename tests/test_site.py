@@ -351,3 +351,16 @@ def test_the_run_box_goes_right_under_the_title():
 def test_binder_link_opens_the_notebook_in_jupyterlab():
     assert build_site.binder_url("o/r", "main", "01_x.ipynb") == \
         "https://mybinder.org/v2/gh/o/r/main?labpath=notebooks%2F01_x.ipynb"
+
+
+def test_a_stored_widget_repr_becomes_a_note():
+    nb = {"cells": [{"cell_type": "code", "source": "interact(f, a=1)", "outputs": [
+        {"output_type": "display_data", "metadata": {},
+         "data": {"text/plain": ["interactive(children=(FloatSlider(value=0.05), Output()), ...)"]}},
+        {"output_type": "execute_result", "metadata": {}, "data": {"text/plain": "Text(0.5, 1.0, 't')"}},
+        {"output_type": "stream", "name": "stdout", "text": "FloatSlider(value=1)"}]}]}
+    assert build_site.replace_widget_reprs(nb) == 1
+    outputs = nb["cells"][0]["outputs"]
+    assert outputs[0]["data"] == {"text/markdown": build_site.WIDGET_NOTE}
+    assert outputs[1]["data"] == {"text/plain": "Text(0.5, 1.0, 't')"}, "a non-widget repr was replaced"
+    assert outputs[2]["text"] == "FloatSlider(value=1)", "printed text was replaced"

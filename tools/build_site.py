@@ -226,6 +226,31 @@ def snapshot_notebooks(stage_dir: Path) -> Path:
     return snap
 
 
+WIDGET_REPR = re.compile(r"^(interactive|[A-Z]\w*(Slider|Box|Dropdown|Button|Checkbox|Text|Select\w*|Output|"
+                         r"Tab|Accordion|Play|Picker|Progress\w*))\(")
+WIDGET_NOTE = ("*An interactive widget: it runs in the notebook (download it or launch it on Binder, "
+               "above), not on this page.*")
+
+
+def replace_widget_reprs(nb: dict) -> int:
+    """Replace the text of stored widget outputs (``interactive(children=(FloatSlider(...``) by a note.
+
+    The notebooks store no widget state, so a widget's output is only its Python repr, which
+    means nothing on a web page. Returns how many outputs were replaced.
+    """
+    count = 0
+    for cell in nb["cells"]:
+        for k, output in enumerate(cell.get("outputs", [])):
+            data = output.get("data", {})
+            text = data.get("text/plain", "")
+            text = "".join(text) if isinstance(text, list) else text
+            if set(data) == {"text/plain"} and WIDGET_REPR.match(text):
+                cell["outputs"][k] = {"output_type": "display_data", "metadata": {},
+                                      "data": {"text/markdown": WIDGET_NOTE}}
+                count += 1
+    return count
+
+
 def stage_chapters(stage_dir: Path, repository: str, branch: str, docs: dict[str, str]) -> list[Path]:
     """Write the student edition into the stage, one page per chapter (with the run box).
 
@@ -246,6 +271,7 @@ def stage_chapters(stage_dir: Path, repository: str, branch: str, docs: dict[str
     pages = []
     for path in notebooks:
         nb = json.loads(path.read_text(encoding="utf-8"))
+        replace_widget_reprs(nb)
         for cell in nb["cells"]:
             if cell.get("cell_type") == "markdown":
                 cell["source"] = rewrite_links(_source(cell), docs, repository, branch, "notebooks")
