@@ -18,6 +18,9 @@ from scipy.stats import norm
 
 import bayesfilt as bf
 from bayesfilt.checks import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
+from exercise_helpers import (  # noqa: F401 - the shared helpers of the exercise tests
+    never_raises as _assert_never_raises, wrong as _assert_wrong,
+)
 
 ch01 = bf.checks.ch01
 
@@ -71,19 +74,6 @@ def _simulate(seed: int):
 
 def _near(belief, cell, half_width=2):
     return belief[np.mod(cell + np.arange(-half_width, half_width + 1), N)].sum()
-
-
-def _assert_wrong(fb: Feedback, *phrases: str) -> None:
-    assert isinstance(fb, Feedback)
-    assert fb.status == INCORRECT, fb
-    for phrase in phrases:
-        assert phrase in fb.message, (phrase, fb.message)
-
-
-def _assert_never_raises(check, answers) -> None:
-    for answer in answers:
-        fb = check(answer)
-        assert isinstance(fb, Feedback) and fb.status in (INCORRECT, NOT_ATTEMPTED), (answer, fb)
 
 
 # --------------------------------------------------------------------------

@@ -22,6 +22,14 @@ from scipy.optimize import minimize
 
 import bayesfilt as bf
 from bayesfilt.checks import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
+from exercise_helpers import (  # noqa: F401 - the shared helpers of the exercise tests
+    correct, fails_oddly, hides as _hides, never_raises as _never_raises, not_attempted,
+    not_implemented, Odd, wrong,
+)
+
+
+def hides(fb, expected):
+    _hides(fb, expected, digits=4, integers=False)
 
 ch04 = bf.checks.ch04
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,47 +39,6 @@ MODEL = bf.models.range_bearing()
 R = np.diag([0.1, 0.01])                    # the statement's R, written out again
 X_START = np.array([10.0, -5.0, -0.2, 0.2])
 inv = np.linalg.inv
-
-
-def correct(fb):
-    assert isinstance(fb, Feedback)
-    assert fb.status == CORRECT, fb.message
-    assert repr(fb).startswith("Correct: ")
-
-
-def wrong(fb, *phrases):
-    assert isinstance(fb, Feedback)
-    assert fb.status == INCORRECT, fb
-    for phrase in phrases:
-        assert phrase in fb.message, (phrase, fb.message)
-    assert repr(fb).startswith("Not yet: ")
-
-
-def not_attempted(fb):
-    assert isinstance(fb, Feedback)
-    assert fb.status == NOT_ATTEMPTED, fb
-    assert repr(fb).startswith("Not attempted yet: ")
-
-
-def hides(fb, expected):
-    """The message does not show the reference (its non-integer entries to 4 significant digits;
-    fewer would match the test inputs that the messages name, e.g. sin(0.05) = 0.04998)."""
-    for v in np.ravel(expected):
-        if abs(v) > 1e-12 and v != round(v):
-            assert f"{v:.4g}" not in fb.message, (v, fb.message)
-
-
-def not_implemented(*args):
-    raise NotImplementedError("Exercise: write this function")
-
-
-class Odd(Exception):
-    def __str__(self):
-        raise RuntimeError("no text")
-
-
-def fails_oddly(*args):
-    raise Odd()
 
 
 GARBAGE = ["text", b"x", [[1.0, 2.0], [3.0]], np.ones(3), np.ones((3, 3)), np.full(2, np.nan),
@@ -85,9 +52,7 @@ BAD_FUNCTIONS = [3, "f", np.eye(2), lambda *a: "H", lambda *a: {"H": 1},
 
 
 def never_raises(check, answers):
-    for answer in answers:
-        fb = check(*answer) if isinstance(answer, tuple) else check(answer)
-        assert isinstance(fb, Feedback) and fb.status in (INCORRECT, NOT_ATTEMPTED), (answer, fb)
+    _never_raises(check, answers, unpack=True)
 
 
 # ---------------------------------------------------------------------------

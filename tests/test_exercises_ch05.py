@@ -22,6 +22,9 @@ from scipy.stats import norm
 
 import bayesfilt as bf
 from bayesfilt.checks import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
+from exercise_helpers import (  # noqa: F401 - the shared helpers of the exercise tests
+    never_raises as _assert_never_raises, wrong as _assert_wrong,
+)
 
 ch05 = bf.checks.ch05
 NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / "05_sis_weights.ipynb"
@@ -30,19 +33,6 @@ NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / "05_sis_weights.i
 A, Q, C, R = 0.9, 1.0, 1.0, 0.1
 GARBAGE = ["abc", b"x", {"a": 1}, [[1, 2], [3]], object(), 1 + 2j, [True, False], np.eye(4),
            np.full(3, np.nan), [], Ellipsis, 3, -1.5, [None, 1, 2]]
-
-
-def _assert_wrong(fb: Feedback, *phrases: str) -> None:
-    assert isinstance(fb, Feedback)
-    assert fb.status == INCORRECT, fb
-    for phrase in phrases:
-        assert phrase in fb.message, (phrase, fb.message)
-
-
-def _assert_never_raises(check, answers) -> None:
-    for answer in answers:
-        fb = check(answer)
-        assert isinstance(fb, Feedback) and fb.status in (INCORRECT, NOT_ATTEMPTED), (answer, fb)
 
 
 def _not_written(*args):

@@ -23,6 +23,9 @@ from filterpy import monte_carlo
 
 import bayesfilt as bf
 from bayesfilt.checks import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
+from exercise_helpers import (  # noqa: F401 - the shared helpers of the exercise tests
+    never_raises as _assert_never_raises, wrong as _assert_wrong,
+)
 
 ch06 = bf.checks.ch06
 NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / "06_resampling.ipynb"
@@ -32,19 +35,6 @@ SIX = [0.05, 0.32, 0.08, 0.22, 0.13, 0.20]
 W2, M2 = np.array([0.42, 0.28, 0.18, 0.12]), 10
 GARBAGE = ["abc", b"x", {"a": 1}, [[1, 2], [3]], object(), 1 + 2j, [True, False], np.eye(4),
            np.full(3, np.nan), [], Ellipsis, 3, -1.5, [None, 1, 2], {1, 2}]
-
-
-def _assert_wrong(fb: Feedback, *phrases: str) -> None:
-    assert isinstance(fb, Feedback)
-    assert fb.status == INCORRECT, fb
-    for phrase in phrases:
-        assert phrase in fb.message, (phrase, fb.message)
-
-
-def _assert_never_raises(check, answers) -> None:
-    for answer in answers:
-        fb = check(answer)
-        assert isinstance(fb, Feedback) and fb.status in (INCORRECT, NOT_ATTEMPTED), (answer, fb)
 
 
 def _not_written(*args):
