@@ -329,3 +329,162 @@ def test_chapter_modules_load_lazily_and_a_missing_one_is_an_attribute_error():
             assert info.name in dir(bf.checks)
     assert {"Feedback", "compare_array", "compare_number", "compare_function",
             "compare_choice"} <= set(dir(bf.checks))
+
+
+# ---------------------------------------------------------------------------
+# The engine every exercise runs through (bayesfilt.checks.exercise): time limit,
+# in-place changes, nbgrader, rounded answers; and the answers of a class (issue 13)
+# that used to be accepted or misdiagnosed.
+# ---------------------------------------------------------------------------
+
+import signal  # noqa: E402
+import time  # noqa: E402
+
+from exercise_helpers import correct, wrong  # noqa: E402
+
+ch01, ch02, ch03, ch04 = bf.checks.ch01, bf.checks.ch02, bf.checks.ch03, bf.checks.ch04
+
+
+def _in_chapter(code: str, **chapter):
+    """Define a student's function in a namespace holding the chapter's variables."""
+    namespace = {"np": np, "bf": bf, **chapter}
+    exec(code, namespace)
+    return namespace
+
+
+def _right_update(prior, likelihood):
+    joint = np.asarray(prior, dtype=float) * np.asarray(likelihood, dtype=float)
+    return joint / joint.sum()
+
+
+@pytest.mark.parametrize("body", ["while True:\n        pass", "time.sleep(60)"])
+def test_a_function_that_never_returns_is_stopped_and_the_kernel_stays_usable(monkeypatch, body):
+    monkeypatch.setattr(bf.checks, "TIME_LIMIT", 0.3)
+    fun = _in_chapter(f"import time\ndef update_by_hand(prior, likelihood):\n    {body}")["update_by_hand"]
+    handler = signal.getsignal(signal.SIGALRM)
+    start = time.perf_counter()
+    fb = ch01.exercise_1(fun)
+    assert time.perf_counter() - start < 5
+    wrong(fb, "your function update_by_hand did not return within 0.3 s: an endless loop?",
+          "test input")
+    assert signal.getsignal(signal.SIGALRM) is handler and signal.getitimer(signal.ITIMER_REAL)[0] == 0
+    correct(ch01.exercise_1(_right_update))           # and the next check runs as usual
+
+
+def test_the_time_limit_is_ten_seconds_unless_the_environment_says_otherwise():
+    import os
+    expected = float(os.environ.get("BAYESFILT_CHECK_TIME_LIMIT", "10"))
+    assert bf.checks.TIME_LIMIT == expected
+
+
+def test_an_argument_changed_in_place_is_not_yet_whatever_the_output():
+    def spoils(prior, likelihood):
+        prior = np.asarray(prior, dtype=float)
+        prior *= likelihood                            # changes the caller's float array
+        return prior / prior.sum()
+    wrong(ch01.exercise_1(spoils), "spoils changes its argument prior in place", "test input")
+
+
+def test_a_chapter_array_changed_in_place_is_not_yet_and_put_back():
+    """03 ex 4: the gap written into the chapter's own ys instead of a copy."""
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 100, np.random.default_rng(1)).ys
+    kept = ys.copy()
+    ns = _in_chapter(
+        "def end_of_gap_variance(length):\n"
+        "    ys[40:40 + length] = np.nan\n"
+        "    return float(bf.kalman.kalman_filter(model, ys).covs[39 + length, x1, x1])\n"
+        "slope_4 = 1.5", ys=ys, model=model, x1=model.index_of("x1")[0])
+    fb = ch03.exercise_4(ns["end_of_gap_variance"], ns["slope_4"])
+    wrong(fb, "changes the chapter's variable ys in place", "ys.copy()", "put ys back")
+    np.testing.assert_array_equal(ys, kept)
+
+
+def test_under_nbgrader_a_check_that_is_not_correct_raises_its_message(monkeypatch):
+    monkeypatch.setenv("NBGRADER_EXECUTION", "autograde")
+    with pytest.raises(AssertionError, match="Not yet: answer_2"):
+        ch01.exercise_2(np.array([0.1, 0.2, 0.3]))
+    with pytest.raises(AssertionError, match="Not attempted yet"):
+        ch01.exercise_2(None)
+    correct(ch01.exercise_1(_right_update))            # a correct answer passes, once
+    monkeypatch.delenv("NBGRADER_EXECUTION")
+    wrong(ch01.exercise_2(np.array([0.1, 0.2, 0.3])))  # in JupyterLab it never raises
+
+
+def test_a_rounded_answer_is_asked_for_more_decimals():
+    ref = np.array([0.818181818, 0.929824561, 0.972318339])
+    wrong(ch01.exercise_2(np.round(ref, 2)), "rounded to 2 decimals", "give more decimals")
+    wrong(compare_number(0.12, 0.123456), "rounded to 2 decimals")
+    wrong(compare_array(np.round(E, 3), E), "rounded to 3 decimals")
+    assert "decimals" not in compare_number(0.1, 0.123456).message     # 0.1 is just too small
+
+
+def test_01_ex2_the_natural_call_of_bayes_filter_is_explained():
+    push = np.array([[1.0, 0.0], [0.8, 0.2]])
+    closed = np.array([0.4, 0.8])
+    natural = bf.bayes.bayes_filter([0.5, 0.5], push, [closed] * 3).posteriors[:, 0]
+    wrong(ch01.exercise_2(natural), "first likelihood at t = 0", "no_measurement", "posteriors[1:]")
+
+
+def test_02_ex2_a_minus_r_is_not_called_a_constant_factor():
+    fb = ch02.exercise_2(lambda P, C, R: P @ C.T @ np.linalg.inv(C @ P @ C.T - R))
+    wrong(fb, "C P C^T - R", "S = C P C^T + R")
+    assert "constant factor" not in fb.message.replace("not a constant factor", "")
+
+
+def test_02_ex4_the_function_is_checked_and_synonyms_accepted():
+    right = ch02._uniform_grid_means
+    correct(ch02.exercise_4(0, "best linear estimator", lambda a: right(a)))
+    correct(ch02.exercise_4(0, "Best linear estimate"))
+    wrong(ch02.exercise_4(0, "best linear estimate", lambda a: right(np.sqrt(1.5))),
+          "grid_means_uniform", "a = 1")
+
+
+def test_03_ex4_the_variance_at_t_99_is_named_and_not_nan_rows_kept_for_zeros():
+    model = bf.models.damped_particle()
+    x1 = model.index_of("x1")[0]
+
+    def covs(length, fill):
+        ys = np.zeros((100, 2))
+        ys[40:40 + length] = fill
+        return bf.kalman.kalman_filter(model, ys).covs
+    wrong(ch03.exercise_4(lambda n: float(covs(n, np.nan)[99, x1, x1]), 1.5), "t = 99", "covs[39 + length")
+    wrong(ch03.exercise_4(lambda n: float(covs(n, 0.0)[39 + n, x1, x1]), 1.5), "row of NaN")
+
+
+def test_03_ex5_a_wrong_lag_is_named():
+    ys_long = bf.models.simulate(bf.models.damped_particle(), 1000, np.random.default_rng(5)).ys
+    rows = []
+    for kw in (dict(force_var=0.1), dict(meas_var=0.1), dict(meas_var=10)):
+        res = bf.kalman.kalman_filter(bf.models.damped_particle(**kw), ys_long)
+        z = bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)
+        rows.append(bf.gaussian.autocorrelation(z, 3)[2])
+    fb = ch03.exercise_5(np.array(rows), "ratio")
+    wrong(fb, "is lag 3")
+    assert "filter ys_long" not in fb.message
+
+
+def test_04_the_false_positives_of_the_class_are_not_yet():
+    model = bf.models.range_bearing()
+    # ex 5: y -= y_pred changes the caller's array
+    def in_place(y, y_pred):
+        y -= y_pred
+        y[1] = np.pi - np.mod(np.pi - y[1], 2 * np.pi)
+        return y
+    wrong(ch04.exercise_5(in_place), "changes its argument y in place")
+
+    # ex 3: x = m0; x += step moves m0
+    def aliasing(m0, P0, y, n_iter):
+        x = m0
+        for _ in range(n_iter):
+            H = model.H(x)
+            r = bf.models.range_bearing_residual(y, model.h(x)) - H @ (m0 - x)
+            x += m0 + P0 @ H.T @ np.linalg.solve(H @ P0 @ H.T + model.R, r) - x
+        return x
+    wrong(ch04.exercise_3(aliasing, np.zeros(2)), "changes its argument m0 in place")
+
+    # ex 2: the NEES at the last step only (seed 10 as the statement says)
+    nees = ch04._nees_experiment(ch04._converted_cov, np.random.default_rng(10))
+    wrong(ch04.exercise_2(ch04._converted_cov, float(nees[:, -1].mean())), "last step t = 10 only")
+    wrong(ch04.exercise_2(ch04._converted_cov, float(np.median(nees))), "the median")
+    correct(ch04.exercise_2(ch04._converted_cov, float(nees.mean())))
