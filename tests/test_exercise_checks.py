@@ -488,3 +488,22 @@ def test_04_the_false_positives_of_the_class_are_not_yet():
     wrong(ch04.exercise_2(ch04._converted_cov, float(nees[:, -1].mean())), "last step t = 10 only")
     wrong(ch04.exercise_2(ch04._converted_cov, float(np.median(nees))), "the median")
     correct(ch04.exercise_2(ch04._converted_cov, float(nees.mean())))
+
+
+def test_the_example_of_contributing_md_is_a_working_check():
+    """CONTRIBUTING.md's example check, run in chapter 02's module namespace."""
+    import re
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "CONTRIBUTING.md").read_text(encoding="utf-8")
+    section = text[text.index("## Exercises (every chapter)"):]
+    code = next(b for b in re.findall(r"```python\n(.*?)```", section, flags=re.S)
+                if b.startswith("def exercise_2"))
+    namespace = {**vars(bf.checks), **vars(ch02)}   # the module's names and the engine's
+    exec(code, namespace)
+    check = bf.checks.exercise(namespace["exercise_2"])
+    def gain(P, C, R):
+        return P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+    right = gain(ch02.P_EX, ch02.C_EX, ch02.R_EX)
+    correct(check(gain, right))
+    wrong(check(lambda P, C, R: P @ C.T @ np.linalg.inv(C @ P @ C.T), right), "without R")
+    wrong(check(gain, 2 * right), "gain_2")

@@ -489,7 +489,8 @@ def compare_number(answer, expected: float, what: str = "your answer", rtol: flo
 
 
 def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str = "your function",
-                     compare: Callable = compare_array, **compare_kw) -> Feedback:
+                     compare: Callable = compare_array, mistakes: Sequence[tuple] = (),
+                     **compare_kw) -> Feedback:
     """Run a student's function on test inputs and compare each output with the reference.
 
     Parameters
@@ -504,6 +505,9 @@ def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str
         input cannot spoil the next case.
     compare : callable
         :func:`compare_array` or :func:`compare_number` (with ``**compare_kw``).
+    mistakes : sequence of (callable, str)
+        Named mistakes: a wrong implementation (same signature) and the message for an
+        output that agrees with it where the reference does not.
     """
     if fun is None:
         return _not_attempted(what)
@@ -524,6 +528,12 @@ def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str
             return _wrong(f"{what} returned None on test input {k + 1} ({shown}); "
                           f"did you forget `return`?")
         if result.status != CORRECT:
+            for mistake, message in mistakes:
+                try:
+                    if compare(out, mistake(*copy.deepcopy(args)), **compare_kw).status == CORRECT:
+                        return _wrong(f"{what}, test input {k + 1} ({shown}): {message}")
+                except Exception:  # noqa: BLE001 - a mistake that does not apply here
+                    continue
             return result
     return Feedback(CORRECT, f"{what} agrees with the library on all {len(cases)} test inputs.")
 
