@@ -92,23 +92,6 @@ def _wrong(message: str) -> Feedback:
     return Feedback(INCORRECT, message)
 
 
-def _never_raises(what: str):
-    """Turn any unexpected failure of a check into feedback (a check must never raise)."""
-    def decorate(check: Callable) -> Callable:
-        @functools.wraps(check)
-        def wrapper(answer):
-            try:
-                with np.errstate(all="ignore"), warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    return check(answer)
-            except Exception as exc:  # noqa: BLE001 - feedback, not a crash
-                return _wrong(f"{what} could not be checked ({type(exc).__name__}: {exc}); "
-                              f"check its type and shape against the statement.")
-        return wrapper
-    return decorate
-
-
-
 # ---------------------------------------------------------------------------
 # The engine every exercise runs through (``exercise``): student functions guarded
 # (time limit, arguments and chapter variables changed in place), feedback for any
