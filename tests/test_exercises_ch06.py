@@ -411,39 +411,43 @@ def right_4():
     return K_min, "overconfident" if results[K_min][1] > 4 else "conservative", results
 
 
+def _exercise_4_500(*answers):
+    return ch06.exercise_4(*answers, n_particles=500)
+
+
 def test_ex4_the_right_answer_is_accepted_with_other_seeds(right_4):
     K_min, verdict, results = right_4
     assert (K_min, verdict) == (1.0, "conservative"), results
     assert results[0.05][0] > 5 and results[0.1][0] > 5 and results[0.5][0] > 5, results
-    fb = ch06.exercise_4((K_min, verdict))
+    fb = _exercise_4_500((K_min, verdict))
     assert fb.status == CORRECT, fb
-    assert ch06.exercise_4([np.float64(K_min), " Conservative "]).correct
-    assert ch06.exercise_4((K_min, "below 4")).correct
+    assert _exercise_4_500([np.float64(K_min), " Conservative "]).correct
+    assert _exercise_4_500((K_min, "below 4")).correct
 
 
 def test_ex4_a_k_too_small_or_larger_than_needed():
-    _assert_wrong(ch06.exercise_4((0.1, "conservative")), "too small to separate the copies",
+    _assert_wrong(_exercise_4_500((0.1, "conservative")), "too small to separate the copies",
                   "more than 5 of the 20 runs")
-    _assert_wrong(ch06.exercise_4((0.05, "overconfident")), "too small")
-    _assert_wrong(ch06.exercise_4((0.5, "conservative")), "too small to separate the copies")
+    _assert_wrong(_exercise_4_500((0.05, "overconfident")), "too small")
+    _assert_wrong(_exercise_4_500((0.5, "conservative")), "too small to separate the copies")
 
 
 def test_ex4_the_verdict_read_the_wrong_way_round():
-    _assert_wrong(ch06.exercise_4((1.0, "overconfident")), "answer_4[1]", "median NEES", "mean d = 4")
-    _assert_wrong(ch06.exercise_4((1.0, "consistent")), "must be one of", "'consistent'")
-    _assert_wrong(ch06.exercise_4((1.0, 1.4)), "must be one of the words")
+    _assert_wrong(_exercise_4_500((1.0, "overconfident")), "answer_4[1]", "median NEES", "mean d = 4")
+    _assert_wrong(_exercise_4_500((1.0, "consistent")), "must be one of", "'consistent'")
+    _assert_wrong(_exercise_4_500((1.0, 1.4)), "must be one of the words")
 
 
 def test_ex4_not_a_k_and_the_pair_swapped():
-    _assert_wrong(ch06.exercise_4((0, "conservative")), "one of the roughening constants", "lost runs")
-    _assert_wrong(ch06.exercise_4((0.2, "conservative")), "one of the roughening constants")
-    _assert_wrong(ch06.exercise_4(("conservative", 1.0)), "wrong order")
-    _assert_wrong(ch06.exercise_4(0.5), "pair (K_min, verdict)")
+    _assert_wrong(_exercise_4_500((0, "conservative")), "one of the roughening constants", "lost runs")
+    _assert_wrong(_exercise_4_500((0.2, "conservative")), "one of the roughening constants")
+    _assert_wrong(_exercise_4_500(("conservative", 1.0)), "wrong order")
+    _assert_wrong(_exercise_4_500(0.5), "pair (K_min, verdict)")
 
 
 def test_ex4_not_attempted_and_never_raises():
-    assert ch06.exercise_4(None).status == NOT_ATTEMPTED
-    _assert_never_raises(ch06.exercise_4, GARBAGE + [(None, None), ("a", "b"), (0.5,), (0.5, None),
+    assert _exercise_4_500(None).status == NOT_ATTEMPTED
+    _assert_never_raises(_exercise_4_500, GARBAGE + [(None, None), ("a", "b"), (0.5,), (0.5, None),
                                                      (np.array([0.5, 1.0]), "below"), (np.nan, "below"),
                                                      (0.5, "conservative", 1), (lambda: 0, "x")])
 
@@ -469,4 +473,7 @@ def test_the_notebook_states_the_numbers_of_the_checks():
     assert ch06.WEIGHTS_2 == tuple(W2) and ch06.M_2 == M2 and ch06.PARTICLE_2 == 1
     assert ch06.THRESHOLDS_3 == (0.1, 0.5, 0.9) and ch06.N_3 == 500 and ch06.SEED_FILTERS_3 == 16
     assert ch06.K_VALUES_4 == (0.05, 0.1, 0.5, 1.0) and ch06.SEED_FILTERS_4 == 28
+    assert ch06.N_4 == 500
+    wrong_n = ch06.exercise_4((1.0, "conservative"), 300)
+    assert wrong_n.status == INCORRECT and "N_4 = 500" in wrong_n.message
     assert (ch06.MAX_LOST_4, ch06.LOST_METRES_4, ch06.T_FROM_4) == (5, 5.0, 30)

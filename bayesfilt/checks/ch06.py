@@ -75,6 +75,7 @@ RTOL_3, ATOL_3 = 0.2, 1.0
 
 #: exercise 4: the twenty runs of section 6 (seed 25), roughened SIR of section 7 (seed 28)
 RUNS_4, T_4, N_4 = 20, 60, 500               # N_4: fewer particles than section 7 (2000): ~2 s
+N_BEFORE_4 = 2000                            # the exercise's N before issue 13 (check cells without N)
 SEED_RECORDS_4, SEED_FILTERS_4 = 25, 28
 K_VALUES_4 = (0.05, 0.1, 0.5, 1.0)
 LOST_METRES_4 = 5.0                           # a run is lost when its final error exceeds 5 m
@@ -689,8 +690,8 @@ def _nees(errors: np.ndarray, covs: np.ndarray) -> np.ndarray:
     return out
 
 
-@functools.lru_cache(maxsize=1)
-def _experiment_4() -> tuple[float, str, tuple[int, ...]]:
+@functools.lru_cache(maxsize=2)
+def _experiment_4(n_particles: int = N_4) -> tuple[float, str, tuple[int, ...]]:
     """(smallest K of K_VALUES_4 that keeps track, its NEES verdict, lost runs of the Ks tried).
 
     The K are tried in increasing order and the search stops at the first one
@@ -704,7 +705,7 @@ def _experiment_4() -> tuple[float, str, tuple[int, ...]]:
         rng = np.random.default_rng(SEED_FILTERS_4)
         nees, lost = np.empty((RUNS_4, T_4)), 0
         for r, (xs, ys) in enumerate(zip(sims.xs, sims.ys)):
-            m, c = _roughened_sir(vehicle, ys, N_4, rng, K)
+            m, c = _roughened_sir(vehicle, ys, n_particles, rng, K)
             nees[r] = _nees(xs - m, c)
             lost += int(np.linalg.norm(models.positions(vehicle, xs - m)[-1]) > LOST_METRES_4)
         lost_counts.append(lost)
@@ -730,8 +731,11 @@ _VERDICT_WORDS = {
 }
 
 
-def exercise_4(answer) -> Feedback:
+def exercise_4(answer, n_particles: int = N_BEFORE_4) -> Feedback:
     """Check ``answer_4 = (K_min, verdict)`` for roughened SIR on the twenty runs of section 6.
+
+    ``n_particles``: the N of the answer cell's experiment, ``N_4`` (500; the check cell passes
+    it) or, for a check cell written before issue 13 that passes nothing, 2000.
 
     ``K_min``: the smallest K of (0.05, 0.1, 0.5, 1.0) that loses at most 5 of
     the 20 runs (final position error above 5 m); ``verdict``: for that K,
@@ -742,6 +746,9 @@ def exercise_4(answer) -> Feedback:
     reads the NEES the wrong way round or is not one of the two words.
     """
     what = "answer_4"
+    if n_particles not in (N_4, N_BEFORE_4):
+        return _wrong(f"the check knows the experiment with N_4 = {N_4} particles (the answer cell "
+                      f"gives it); got n_particles = {n_particles!r}.")
     if answer is None or answer is Ellipsis:
         return _not_attempted(what)
     pair, bad = _pair(answer, what, "K_min", "verdict")
@@ -759,7 +766,7 @@ def exercise_4(answer) -> Feedback:
                 if float(v).is_integer() and v not in K_VALUES_4 else "")
         return _wrong(f"{what}[0], K_min, must be one of the roughening constants "
                       f"{list(K_VALUES_4)}{hint}.")
-    K_ref, verdict_ref, lost = _experiment_4()
+    K_ref, verdict_ref, lost = _experiment_4(n_particles)
     if K < K_ref:
         return _wrong(f"{what}[0]: with K = {K} the jitter is too small to separate the copies: "
                       f"the filter loses more than {MAX_LOST_4} of the {RUNS_4} runs (final "
