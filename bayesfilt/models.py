@@ -76,7 +76,7 @@ import numpy as np
 
 from ._checks import (as_array, as_covariance, as_int, as_matrix, as_noise_gain,
                       as_positive_float, as_rng, as_vector, check_callable, check_output)
-from .gaussian import _cholesky, _logpdf_rows, _lower_inverse
+from .gaussian import _apply_to_rows, _cholesky, _logpdf_rows, _lower_inverse
 from .gaussian import _factor as _noise_factor  # L L^T = cov, also for a singular cov
 
 __all__ = [
@@ -165,8 +165,8 @@ class _ModelBase:
         rng = as_rng("rng", rng)
         size = as_int("size", size, minimum=1)
         z = rng.standard_normal((size, self.state_dim))
-        # x_0 = m0 + L z with L L^T = P0 (np.dot is the matrix product z L^T, see _hold_factors)
-        return self.m0 + np.dot(z, self._P0_factor.T)
+        # x_0 = m0 + L z with L L^T = P0, for every row z of z
+        return self.m0 + _apply_to_rows(self._P0_factor, z)
 
     def sample_transition(self, rng: np.random.Generator, xs, u=None, t: int = 0) -> np.ndarray:
         """Draw :math:`x_{t+1} \\sim p(x_{t+1} \\mid x_t = x_s, u_t)` for every row.
@@ -192,8 +192,8 @@ class _ModelBase:
         mean = self._transition_mean(batch, u, t)
         # G w = G L z with L L^T = Q, z ~ N(0, I): one noise draw per particle
         z = rng.standard_normal((batch.shape[0], self.noise_dim))
-        # x_{t+1} = f(x_t) (+ B u_t) + G w_t, with G L held by the model (z (G L)^T row by row)
-        out = mean + np.dot(z, self._noise_gain_factor.T)
+        # x_{t+1} = f(x_t) (+ B u_t) + G w_t, with G L held by the model
+        out = mean + _apply_to_rows(self._noise_gain_factor, z)
         return out[0] if single else out
 
     def sample_measurement(self, rng: np.random.Generator, xs) -> np.ndarray:
@@ -201,7 +201,7 @@ class _ModelBase:
         rng = as_rng("rng", rng)
         batch, single = _as_states("xs", xs, self.state_dim)
         # y = h(x) + v, v = L z with L L^T = R
-        v = np.dot(rng.standard_normal((batch.shape[0], self.obs_dim)), self._R_factor.T)
+        v = _apply_to_rows(self._R_factor, rng.standard_normal((batch.shape[0], self.obs_dim)))
         out = self._measurement_mean(batch) + v
         return out[0] if single else out
 
@@ -319,9 +319,7 @@ class _ModelBase:
         * draws: L L^T = P0, (G L_Q)(G L_Q)^T = G Q G^T and L_R L_R^T = R, so that
           ``m0 + z L^T``, ``z (G L_Q)^T`` and ``z L_R^T`` (z ~ N(0, I), one row per
           draw) have the covariances P0, G Q G^T and R; these factors exist for a
-          singular covariance too. They are applied with ``np.dot``, the same matrix
-          product as ``@``, which for a tall array times a 1 x 1 factor (a scalar
-          state or measurement) is a plain scaling, ten times faster than ``@``;
+          singular covariance too;
         * densities: the Cholesky factors of R and of G Q G^T and their inverses
           (None when the matrix is singular: there is no density, and the method
           that needs it raises).

@@ -614,8 +614,8 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
             raise ValueError(f"particle_filter, step t = {t}: {exc}") from None
         W = np.exp(log_W)
         means[t], covs[t] = _mean_cov(X, W)
-        # ESS = 1 / sum_i W_i^2
-        ess_t[t] = 1.0 / np.dot(W, W)
+        # ESS = 1 / sum_i W_i^2 (not np.dot: OpenBLAS's threads would wake for a long W)
+        ess_t[t] = 1.0 / np.sum(W ** 2)
         if keep_history:
             hist_X[t], hist_W[t], hist_A[t] = X, W, parents
         if threshold == 1.0 or ess_t[t] < threshold * N:      # step [4]
