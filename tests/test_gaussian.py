@@ -430,3 +430,14 @@ def test_whiteness_helpers_bad_inputs():
         bf.gaussian.autocorrelation(np.zeros((4, 2, 2)), 1)
     with pytest.raises(ValueError, match="x needs at least 2 samples"):
         bf.gaussian.autocorrelation([1.0], 1)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (4, 1), (2, 2), (4, 2)])
+def test_apply_to_rows_is_the_matrix_product(shape):
+    """The rows F z_i: one column of F is applied as a column times a number, exactly."""
+    from bayesfilt.gaussian import _apply_to_rows
+
+    rng = np.random.default_rng(7)
+    F, z = rng.standard_normal(shape), rng.standard_normal((1000, shape[1]))
+    np.testing.assert_array_equal(_apply_to_rows(F, z), z @ F.T)
+    np.testing.assert_array_equal(_apply_to_rows(F, z[:1]), np.atleast_2d(F @ z[0]))
