@@ -63,3 +63,36 @@ class Odd(Exception):
 
 def fails_oddly(*args):
     raise Odd()
+
+
+def solution_names(source: str) -> set[str]:
+    """The answer names of an answer cell: the functions whose body stands between nbgrader's
+    markers, and the names that top-level markers define (defs and assignments only there).
+
+    Works for both layouts: markers inside a def's body (the signature and docstring outside),
+    and a def between top-level markers.
+    """
+    import ast
+
+    lines = source.splitlines()
+    begins = [k + 1 for k, line in enumerate(lines) if line.strip() == "### BEGIN SOLUTION"]
+    ends = [k + 1 for k, line in enumerate(lines) if line.strip() == "### END SOLUTION"]
+    assert len(begins) == len(ends) >= 1, "markers pair up"
+    tree = ast.parse(source)
+    names = set()
+    for begin, end in zip(begins, ends):
+        assert begin < end, "BEGIN before END"
+        if lines[begin - 1] != lines[begin - 1].lstrip():          # inside a body
+            before = [n for n in tree.body if n.lineno < begin]      # the statement they are in
+            assert before and isinstance(before[-1], ast.FunctionDef) and \
+                before[-1].end_lineno >= begin, f"indented markers at line {begin} are not in a def"
+            names.add(before[-1].name)
+            continue
+        for node in tree.body:
+            if begin < node.lineno < end:
+                assert isinstance(node, (ast.FunctionDef, ast.Assign)), ast.dump(node)[:80]
+                if isinstance(node, ast.FunctionDef):
+                    names.add(node.name)
+                else:
+                    names.update(t.id for t in node.targets)
+    return names

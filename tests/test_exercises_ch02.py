@@ -9,7 +9,6 @@ The inputs of the notebook's statements are the module's constants.
 
 from __future__ import annotations
 
-import ast
 import json
 from pathlib import Path
 
@@ -19,7 +18,7 @@ import pytest
 import bayesfilt as bf
 from bayesfilt.checks import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
 from exercise_helpers import (  # noqa: F401 - the shared helpers of the exercise tests
-    correct, hides as _hides, not_attempted, not_implemented, wrong,
+    solution_names, correct, hides as _hides, not_attempted, not_implemented, wrong,
 )
 
 
@@ -98,24 +97,19 @@ def test_solution_blocks_hold_only_defs_and_answer_assignments():
     answers = {1: {"excess_1"}, 2: {"kalman_gain"}, 3: {"info_3"},
                4: {"grid_means_uniform", "agree_4", "meaning_4"}, 5: {"correlated_gain"}}
     for n, source in _answer_cells().items():
-        assert source.count("### BEGIN SOLUTION") == 1 and source.count("### END SOLUTION") == 1
-        block = source.split("### BEGIN SOLUTION\n")[1].split("### END SOLUTION")[0]
-        names = set()
-        for node in ast.parse(block).body:
-            assert isinstance(node, (ast.FunctionDef, ast.Assign)), (n, ast.dump(node)[:80])
-            if isinstance(node, ast.FunctionDef):
-                names.add(node.name)
-            else:
-                names.update(t.id for t in node.targets)
-        assert names == answers[n]
+        assert solution_names(source) == answers[n], n
 
 
 def test_check_cells_are_a_single_call():
     calls = [source for source, kind in _cells() if kind == "code" and "bf.checks.ch02" in source]
-    assert calls == ["bf.checks.ch02.exercise_1(excess_1)", "bf.checks.ch02.exercise_2(kalman_gain)",
-                     "bf.checks.ch02.exercise_3(info_3)",
-                     "bf.checks.ch02.exercise_4(agree_4, meaning_4)",
-                     "bf.checks.ch02.exercise_5(correlated_gain)"]
+    # exercise 4's check takes grid_means_uniform too once issue 13's notebook changes are in
+    ex4 = {"bf.checks.ch02.exercise_4(agree_4, meaning_4)",
+           "bf.checks.ch02.exercise_4(agree_4, meaning_4, grid_means_uniform)"}
+    assert calls[3] in ex4, calls[3]
+    assert calls[:3] + calls[4:] == ["bf.checks.ch02.exercise_1(excess_1)",
+                                     "bf.checks.ch02.exercise_2(kalman_gain)",
+                                     "bf.checks.ch02.exercise_3(info_3)",
+                                     "bf.checks.ch02.exercise_5(correlated_gain)"]
 
 
 def test_the_given_numbers_are_read_only():

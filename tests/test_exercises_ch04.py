@@ -11,7 +11,6 @@ numbers of the notebook's statements are the module's constants.
 
 from __future__ import annotations
 
-import ast
 import dataclasses
 import json
 from pathlib import Path
@@ -23,7 +22,7 @@ from scipy.optimize import minimize
 import bayesfilt as bf
 from bayesfilt.checks import CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback
 from exercise_helpers import (  # noqa: F401 - the shared helpers of the exercise tests
-    correct, fails_oddly, hides as _hides, never_raises as _never_raises, not_attempted,
+    solution_names, correct, fails_oddly, hides as _hides, never_raises as _never_raises, not_attempted,
     not_implemented, Odd, wrong,
 )
 
@@ -125,16 +124,7 @@ def test_solution_blocks_hold_only_defs_and_answer_assignments():
                5: {"wrapped_innovation"}}
     for n, parts in _exercise_cells().items():
         source = parts["answer"]
-        assert source.count("### BEGIN SOLUTION") == 1 and source.count("### END SOLUTION") == 1
-        block = source.split("### BEGIN SOLUTION\n")[1].split("### END SOLUTION")[0]
-        names = set()
-        for node in ast.parse(block).body:
-            assert isinstance(node, (ast.FunctionDef, ast.Assign)), (n, ast.dump(node)[:80])
-            if isinstance(node, ast.FunctionDef):
-                names.add(node.name)
-            else:
-                names.update(t.id for t in node.targets)
-        assert names == answers[n]
+        assert solution_names(source) == answers[n], n
 
 
 def test_check_cells_are_a_single_call():
