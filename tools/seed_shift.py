@@ -35,7 +35,7 @@ def shifted(source: str, shift: int) -> str:
     return SEED.sub(lambda m: f"default_rng({int(m.group(1)) + shift})", source)
 
 
-def run_shifted(path: Path, shift: int, timeout: int = 600) -> str | None:
+def run_shifted(path: Path, shift: int, timeout: int = 120) -> str | None:
     """Execute a seed-shifted copy of ``path``; return None, or the error text."""
     nb = nbformat.read(path, as_version=4)
     for cell in nb.cells:
