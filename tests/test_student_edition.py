@@ -714,3 +714,19 @@ def test_output_is_byte_identical_from_run_to_run(fake_repo, tmp_path):
     assert _snapshot(one) == _snapshot(two)
     assert "NotImplementedError" in (one / "01_synthetic.ipynb").read_text()
 
+
+
+def test_the_commands_of_instructors_md_run(fake_repo, tmp_path):
+    """Every `python tools/make_student_edition.py ...` of INSTRUCTORS.md, run as written (from a
+    copy of the repository's layout, so that the real notebooks are never the target)."""
+    text = (ROOT / "INSTRUCTORS.md").read_text(encoding="utf-8")
+    commands = set(re.findall(r"python tools/make_student_edition\.py(?:[ \n]+(?:--\w+|[\w./-]+/))*",
+                              text))
+    assert any(c.endswith("student/") for c in commands) and any(c.endswith("--table") for c in commands), commands
+    for command in sorted(commands):
+        args = command.split()[2:]
+        proc = _cli(fake_repo, *args)
+        assert proc.returncode == 0, (command, proc.stderr)
+        if "--table" in args:
+            assert proc.stdout.startswith("| chapter | exercise | kind | time | setting |"), proc.stdout
+    assert (fake_repo / "student" / "01_synthetic.ipynb").exists()
