@@ -24,8 +24,15 @@ The reference answers are computed here, by the library (``bf.kalman``,
 ``bf.bayes``, ...), never stored in the notebook, so a student edition
 (``tools/make_student_edition.py``) can hand out the check cells as they are.
 
-This module holds the generic comparisons; the chapter modules
-``bf.checks.ch01`` ... ``bf.checks.ch06`` hold one check per exercise.
+This module holds the generic comparisons and the engine every exercise runs
+through (:func:`exercise`); the chapter modules ``bf.checks.ch01`` ...
+``bf.checks.ch06`` hold one check per exercise. The engine wraps a student's
+function (:func:`guard`): each call has a time limit (:data:`TIME_LIMIT`,
+10 s, by ``SIGALRM`` on POSIX in the main thread; no limit elsewhere), and an
+argument or a chapter array changed in place ends the check with a "Not yet".
+Under nbgrader (``NBGRADER_EXECUTION`` set while it autogrades or validates) a
+check that is not correct raises ``AssertionError`` with its message, so the
+check cell loses its points; elsewhere a check never raises.
 """
 
 from __future__ import annotations
