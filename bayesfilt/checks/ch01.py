@@ -247,7 +247,7 @@ def exercise_1(update_by_hand) -> Feedback:
             if prior.dtype.kind in "iu" and ("cast" in str(exc) or "ufunc" in str(exc).lower()):
                 return _wrong(f"{what} fails on test input {shown}, a prior of integer counts: "
                               f"in-place arithmetic (*=, /=) cannot store fractions in an integer "
-                              f"array (section 9). Compute a new array instead of changing prior.")
+                              f"array. Compute a new array instead of changing prior.")
             return _wrong(f"{what} fails on test input {shown}: TypeError: {exc}")
         except Exception as exc:  # noqa: BLE001 - the student's error is feedback
             return _wrong(f"{what} fails on test input {shown}: {type(exc).__name__}: {exc}")
