@@ -512,20 +512,22 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
                     roughening: float | None = None) -> ParticleFilterResult:
     r"""Run a particle filter (SIS with adaptive resampling) over a measurement record.
 
-    For t = 0, ..., T-1 (seed 000 §3.2, steps [1]-[5]; Arulampalam et al.
-    2002, Algorithm 4):
+    For t = 0, ..., T-1 (seed 000 §3.2, steps [1]-[5]; the generic particle
+    filter of Arulampalam et al. 2002, Algorithm 3, which resamples when the
+    ESS drops; with ``ess_threshold=1`` and the transition proposal it is
+    their SIR filter, Algorithm 4):
 
     1. t = 0: draw N particles from the prior :math:`N(m_0, P_0)` (step [1];
        the proposal is not used at t = 0: the first weights are the
-       likelihoods :math:`p(y_0 \mid x_0^i)`); t >= 1: move each particle
+       likelihoods :math:`p(y_0 \mid x_0^{(i)})`); t >= 1: move each particle
        with the proposal (step [2]);
     2. weight them by eq. (13), normalise in the log domain (step [3]) and
        record the weighted mean, covariance and ESS;
     3. if ``ESS < ess_threshold * N`` (always when ``ess_threshold == 1``),
        resample with the named scheme and reset the weights to 1/N (step [4]);
-       with ``roughening = K``, then jitter every particle (Gordon, Salmond
-       & Smith 1993): :math:`x^i_k \leftarrow x^i_k + K E_k N^{-1/n} z^i_k`,
-       :math:`z^i_k \sim N(0, 1)`, :math:`E_k` the range of component k of
+       with ``roughening = kappa``, then jitter every particle (Gordon,
+       Salmond & Smith 1993): :math:`x^{(i)}_k \leftarrow x^{(i)}_k + \kappa E_k N^{-1/n} z^{(i)}_k`,
+       :math:`z^{(i)}_k \sim N(0, 1)`, :math:`E_k` the range of component k of
        the resampled particles (chapter 06, section 7).
 
     Parameters
