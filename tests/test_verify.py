@@ -4,7 +4,10 @@ The references are independent of the code under test: exact values set by
 hand, and draws from numpy's generators whose laws are known.
 """
 
+import math
+
 import numpy as np
+from scipy.integrate import quad
 import pytest
 
 import bayesfilt as bf
@@ -19,6 +22,16 @@ def test_z_limit_is_the_two_sided_normal_quantile_with_a_union_bound():
         bf.verify.z_limit(0)
     with pytest.raises(ValueError, match="alpha"):
         bf.verify.z_limit(1, alpha=2.0)
+    # Student's t, 99 dof: the tail beyond the limit, integrated from the density written out
+    nu, z = 99, bf.verify.z_limit(1, dof=99)
+    c = math.exp(math.lgamma((nu + 1) / 2) - math.lgamma(nu / 2)) / math.sqrt(nu * math.pi)
+    tail = quad(lambda x: c * (1 + x * x / nu) ** (-(nu + 1) / 2), z, np.inf)[0]
+    assert abs(2 * tail - 1e-4) < 1e-8, 2 * tail
+    assert z > bf.verify.z_limit(1)                                           # heavier tails
+
+    assert bf.verify.z_limit(1, dof=10**6) - bf.verify.z_limit(1) < 1e-3   # t -> normal
+    with pytest.raises(ValueError, match="dof"):
+        bf.verify.z_limit(1, dof=0)
 
 
 def test_agree_passes_within_tolerance_and_fails_beyond(capsys):
