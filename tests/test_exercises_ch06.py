@@ -190,7 +190,7 @@ def test_ex1_an_unrecognised_mistake_names_the_point():
         a[2] = a[3]                          # [1, 1, 3, 3, 4, 5] on the statement's input
         return a
 
-    _assert_wrong(ch06.exercise_1(half_wrong), "test input 1", "j = 2", "first i with p_j < C_i")
+    _assert_wrong(ch06.exercise_1(half_wrong), "test input 1", "j = 2", "first i with p_j < Ω^(i)")
 
 
 def test_ex1_not_attempted_and_never_raises():
@@ -207,7 +207,7 @@ def test_ex1_not_attempted_and_never_raises():
 
 
 # --------------------------------------------------------------------------
-# Exercise 2: E[N_1] and Var(N_1) under three schemes
+# Exercise 2: E[N^(2)] and Var(N^(2)) under three schemes
 # --------------------------------------------------------------------------
 
 RIGHT_2 = np.array([2.8, 2.016, 0.16, 0.48])   # M W, M W (1 - W), f (1 - f), f (1 - f/R); f = 0.8, R = 2
@@ -236,34 +236,34 @@ def test_ex2_the_right_answer_is_accepted():
 
 
 def test_ex2_the_expected_count():
-    _assert_wrong(ch06.exercise_2([0.28, *RIGHT_2[1:]]), "answer_2[0]", "probability W^1", "M W^1")
+    _assert_wrong(ch06.exercise_2([0.28, *RIGHT_2[1:]]), "answer_2[0]", "probability W^(2)", "M W^(2)")
     _assert_wrong(ch06.exercise_2([3.0, *RIGHT_2[1:]]), "whole number")
 
 
 def test_ex2_the_multinomial_variance():
-    _assert_wrong(ch06.exercise_2([2.8, 2.8, 0.16, 0.48]), "answer_2[1]", "Poisson", "(1 - W^1)")
-    _assert_wrong(ch06.exercise_2([2.8, 0.28 * 0.72, 0.16, 0.48]), "one draw", "M W^1 (1 - W^1)")
+    _assert_wrong(ch06.exercise_2([2.8, 2.8, 0.16, 0.48]), "answer_2[1]", "Poisson", "(1 - W^(2))")
+    _assert_wrong(ch06.exercise_2([2.8, 0.28 * 0.72, 0.16, 0.48]), "one draw", "M W^(2) (1 - W^(2))")
     _assert_wrong(ch06.exercise_2([2.8, math.sqrt(2.016), 0.16, 0.48]), "standard deviation")
     _assert_wrong(ch06.exercise_2([2.8, 2.8 * (1 - 2.8), 0.16, 0.48]), "inside the bracket")
 
 
 def test_ex2_the_systematic_variance():
     _assert_wrong(ch06.exercise_2([2.8, 2.016, 2.016, 0.48]), "answer_2[2]", "multinomial variance",
-                  "floor(M W^1) or ceil(M W^1)")
-    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.8, 0.48]), "probability that N_1 takes the larger")
+                  "floor(M W^(2)) or ceil(M W^(2))")
+    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.8, 0.48]), "probability that N^(2) takes the larger")
     _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.0, 0.48]), "always the same number")
 
 
 def test_ex2_the_residual_variance():
-    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.16, 0.16]), "answer_2[3]", "Count R again")
-    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.16, 2.016]), "only R = M - sum_i floor(M W^i)")
-    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.16, 0.8 * (1 - 0.8 / 10)]), "divides f by M")
+    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.16, 0.16]), "answer_2[3]", "Count M̃ again")
+    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.16, 2.016]), "only M̃ = M - sum_i floor(M W^(i))")
+    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.16, 0.8 * (1 - 0.8 / 10)]), "divides φ by M")
     _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.16, 0.8 * (1 - 0.8 / 3)]), "wrong number of residual draws")
 
 
 def test_ex2_particle_0_order_and_shape():
     particle_0 = [4.2, 10 * 0.42 * 0.58, 0.16, 0.2 * (1 - 0.2 / 2)]
-    _assert_wrong(ch06.exercise_2(particle_0), "particle 0", "numbered from 0")
+    _assert_wrong(ch06.exercise_2(particle_0), "particle 1 (weight 0.42)", "numbered from 0")
     _assert_wrong(ch06.exercise_2(RIGHT_2[[0, 1, 3, 2]]), "wrong order")
     _assert_wrong(ch06.exercise_2(RIGHT_2.reshape(2, 2)), "flat array")
     _assert_wrong(ch06.exercise_2(RIGHT_2[:3]), "four numbers")

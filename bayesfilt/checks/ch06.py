@@ -3,7 +3,7 @@ r"""Checks of chapter 06's exercises (resampling, the particle filter); referenc
 exercise_1(my_systematic): ancestors of the comb p_j = (j + u)/N; counts, cumulative counts, the points, a shift
     by one, unnormalised weights, side='left', combs j/N + u, j = 1..N, j/N, floats, order, range, weight 0,
     length, random draws.
-exercise_2(answer_2): E[N_1], Var(N_1) multinomial/systematic/residual: wrong formulas, particle 0, order,
+exercise_2(answer_2): E[N^(2)], Var(N^(2)) multinomial/systematic/residual: wrong formulas, particle 0, order,
     a near miss.
 exercise_3(answer_3): resamplings per record (a total, fraction, percentage, complement, reversed, falling) and
     theta_worst (an RMSE, np.argmin).
@@ -27,7 +27,7 @@ from . import CORRECT, Feedback, _as_numbers, _matches, _not_attempted, _not_wri
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4"]
 
-SIX_WEIGHTS, U_STATEMENT, TOL_INDEX = (0.05, 0.32, 0.08, 0.22, 0.13, 0.20), 0.5, 1e-12  # round-off at a C_i
+SIX_WEIGHTS, U_STATEMENT, TOL_INDEX = (0.05, 0.32, 0.08, 0.22, 0.13, 0.20), 0.5, 1e-12  # round-off at an Ω^(i)
 WEIGHTS_2, M_2, PARTICLE_2, ATOL_HAND = (0.42, 0.28, 0.18, 0.12), 10, 1, 2e-3         # 3 decimals
 LG_3 = dict(A=[[0.9]], C=[[1.0]], Q=[[1.0]], R=[[1.0]], m0=[0.0], P0=[[1.0]])         # section 3
 RECORDS_3, T_3, N_3, SEED_RECORDS_3, SEED_FILTERS_3, THRESHOLDS_3 = 20, 50, 500, 15, 16, (0.1, 0.5, 0.9)
@@ -40,7 +40,7 @@ LOST_METRES_4, MAX_LOST_4, T_FROM_4, NEES_DOF_4 = 5.0, 5, 30, 4
 NEES_MEDIAN_4 = float(stats.chi2.median(NEES_DOF_4))      # 3.357: what a median NEES is compared with
 VERDICTS_4 = ("overconfident", "conservative")
 # Over 130 seed pairs (N = 2000) K = 0.1 lost 11-20 runs, K = 0.5 0-3, with median NEES 1.17-1.83.
-FIRST = "a_j is the first i with p_j < C_i"
+FIRST = "a_j is the first i with p_j < Ω^(i)"
 
 
 def _number(value, what: str):
@@ -88,7 +88,7 @@ def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | No
     in_range = a.min() >= 0 and a.max() <= n - 1
     lower = np.r_[0.0, C][idx]                               # C_(a_j - 1), with C_(-1) = 0
     if whole and in_range and ascending and np.all(w[idx] > 0) and np.all(p >= lower - TOL_INDEX) \
-            and np.all(p < C[idx] + TOL_INDEX):              # the first i with p_j < C_i, up to round-off
+            and np.all(p < C[idx] + TOL_INDEX):              # the first i with p_j < Ω^(i), up to round-off
         return None
     counts, many, find = np.bincount(ref, minlength=n), n > 1, functools.partial(np.searchsorted, C, side="right")
     seen = lambda wrong: _matches(a, wrong, 0.0, 1e-9)  # noqa: E731 - a is that mistake's output
@@ -99,16 +99,16 @@ def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | No
         (seen(np.cumsum(counts)), f" returns cumulative offspring counts on {s}, not the ancestor of each "
                                   f"point: {FIRST}."),
         (seen(p), f" returns the points p_j = (j + u)/N themselves on {s}; return, for each point, the index "
-                  f"of the piece [C_(i-1), C_i) it falls in."),
+                  f"of the piece [Ω^(i-1), Ω^(i)) it falls in."),
         (seen(ref + 1), f"'s indices are shifted by one on {s}: each is one more than the ancestor (a leading 0 "
-                        f"in the cumulative sums?). Particles are numbered from 0; {FIRST}."),
+                        f"in the cumulative sums?). The code numbers particles from 0 (the maths from 1); {FIRST}."),
         (seen(ref - 1), f"'s indices are shifted by one on {s}: each is one less than the ancestor; {FIRST} "
-                        f"(particles numbered from 0)."),
+                        f"(the code numbers particles from 0)."),
         (many and not math.isclose(total, 1.0) and seen(np.searchsorted(np.cumsum(w), p, "right")),
          f" does not normalise the weights: on {s} they sum to {total:.4g}, so the comb in [0, 1) covers the "
          f"wrong part of the staircase. Divide by the sum first."),
         (many and seen(np.searchsorted(C, p, side="left")), f" picks a particle of weight 0 on {s}: a point "
-         f"equal to a C_i belongs to the next piece ({FIRST}, strictly), so use side='right', not 'left'."),
+         f"equal to an Ω^(i) belongs to the next piece ({FIRST}, strictly), so use side='right', not 'left'."),
         (many and seen(find(np.arange(n) / n + u)), f" uses the points j/N + u on {s}; the comb is "
          f"p_j = (j + u)/N: u shifts each tooth by less than 1/N, so the points stay in [0, 1)."),
         (many and seen(find((np.arange(1, n + 1) + u) / n)),
@@ -122,11 +122,11 @@ def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | No
                        f"are 0, ..., {n - 1}." + (" Is the last cumulative weight exactly 1? Every point "
                                                   "p_j < 1 must find a piece." if bad >= n else "")),
         (np.any(w[idx] <= 0), f" picks particle {idx[np.argmin(w[idx])]} on {s}, whose weight is 0: its piece "
-                              f"[C_(i-1), C_i) is empty. {FIRST} (strictly)."),
+                              f"[Ω^(i-1), Ω^(i)) is empty. {FIRST} (strictly)."),
         (not ascending, f"'s indices on {s} are not sorted ascending, as the points are."),
         (True, f" gives a wrong ancestor on {s}: the first at j = {j}, the point p_j = {p[j]:.4f}, put in "
-               f"particle {idx[j]}'s piece [C_(i-1), C_i). Stack the normalised weights (C_i = W^0 + ... + W^i) "
-               f"and take the first i with p_j < C_i."),
+               f"particle {idx[j]}'s piece [Ω^(i-1), Ω^(i)). Stack the normalised weights (Ω^(i) = W^(1) + ... + W^(i)) "
+               f"and take the first i with p_j < Ω^(i)."),
     ]
     return _wrong("my_systematic" + next(message for mistake, message in mistakes if mistake))
 
@@ -188,7 +188,7 @@ def exercise_1(my_systematic) -> Feedback:
 
 def _law_2(W: np.ndarray, M: int, i: int) -> np.ndarray:
     """[E N_i, Var N_i multinomial, systematic (exact: N_i is a step function of u, with steps at the fractional
-    parts of M C_k), residual (floor(M W^i) + Binomial(R, f_i / R))]."""
+    parts of M C_k), residual (floor(M W^(i)) + Binomial(M̃, φ^(i) / M̃))]."""
     MW = M * W / W.sum()
     cuts = np.unique(np.clip(np.r_[0.0, 1.0, MW.cumsum() % 1.0], 0.0, 1.0))
     n_i = [np.sum(resampling.from_uniforms(W, np.full(M, u)) == i) for u in cuts[:-1] + np.diff(cuts) / 2]
@@ -201,47 +201,47 @@ def _variants_2() -> list[list[tuple[float, str]]]:
     """For each entry of answer_2, (a plausible wrong value, what it means)."""
     W = np.array(WEIGHTS_2) / np.sum(WEIGHTS_2)
     M, w, other = M_2, W[PARTICLE_2], _law_2(W, M_2, 0)          # particle 0: a numbering mix-up
-    MW, R, mw, res = M * w, M - np.floor(M * W).sum(), "M W^1 (1 - W^1)", "R = M - sum_i floor(M W^i)"
+    MW, R, mw, res = M * w, M - np.floor(M * W).sum(), "M W^(2) (1 - W^(2))", "M̃ = M - sum_i floor(M W^(i))"
     f, std = MW % 1.0, "is a standard deviation; the question asks for the variance (its square)."
-    zero = ("is the value for particle 0 (weight 0.42); particles are numbered from 0, and particle 1 is the one "
-            "with weight W^1 = 0.28.")
-    whole = "is a whole number; an expected count need not be one: unbiasedness says E[N_i] = M W^i exactly."
+    zero = ("is the value for particle 1 (weight 0.42): the code's index 0, since it is numbered from 0; "
+            "the exercise's particle 2 is the one with weight W^(2) = 0.28.")
+    whole = "is a whole number; an expected count need not be one: unbiasedness says E[N^(i)] = M W^(i) exactly."
     return [
-        [(w, "is the probability W^1 that one draw picks particle 1; over M = 10 draws the expected number of "
-             "copies is M W^1."), (MW // 1, whole), (MW // 1 + 1, whole),
-         (M / len(W), "is M / N, the expected count of equal weights; particle 1 gets M W^1."), (other[0], zero)],
-        [(MW, f"is M W^1 (a Poisson variance); the multinomial count is binomial, Var(N_1) = {mw}."),
-         (w * (1 - w), f"is the variance W^1 (1 - W^1) of one draw's indicator; the M independent draws add "
+        [(w, "is the probability W^(2) that one draw picks particle 1; over M = 10 draws the expected number of "
+             "copies is M W^(2)."), (MW // 1, whole), (MW // 1 + 1, whole),
+         (M / len(W), "is M / N, the expected count of equal weights; particle 1 gets M W^(2)."), (other[0], zero)],
+        [(MW, f"is M W^(2) (a Poisson variance); the multinomial count is binomial, Var(N^(2)) = {mw}."),
+         (w * (1 - w), f"is the variance W^(2) (1 - W^(2)) of one draw's indicator; the M independent draws add "
                        f"up: {mw}."),
-         (MW * (1 - MW), f"puts M W^1 inside the bracket; the formula is {mw}, with the weight W^1 in (1 - W^1)."),
+         (MW * (1 - MW), f"puts M W^(2) inside the bracket; the formula is {mw}, with the weight W^(2) in (1 - W^(2))."),
          (M * M * w * (1 - w), f"has M^2; the variance of a sum of M independent indicators is M times the "
                                f"variance of one: {mw}."), (math.sqrt(M * w * (1 - w)), std), (other[1], zero)],
-        [(M * w * (1 - w), "is the multinomial variance; the systematic comb puts the teeth 1/M apart, so N_1 is "
-                           "always floor(M W^1) or ceil(M W^1): Var = f (1 - f) with f = M W^1 - floor(M W^1)."),
-         (f, "is f = M W^1 - floor(M W^1), the probability that N_1 takes the larger value; the variance of "
-             "floor(M W^1) + Bernoulli(f) is f (1 - f)."),
-         (1 - f, "is 1 - f, the probability of the smaller value; the variance of floor(M W^1) + Bernoulli(f) is "
-                 "f (1 - f), with f = M W^1 - floor(M W^1)."),
-         (0.0, "would mean that N_1 is always the same number, which happens only when M W^1 is a whole number; "
-               "here it is not, so N_1 takes two values."),
+        [(M * w * (1 - w), "is the multinomial variance; the systematic comb puts the teeth 1/M apart, so N^(2) is "
+                           "always floor(M W^(2)) or ceil(M W^(2)): Var = φ (1 - φ) with φ = M W^(2) - floor(M W^(2))."),
+         (f, "is φ = M W^(2) - floor(M W^(2)), the probability that N^(2) takes the larger value; the variance of "
+             "floor(M W^(2)) + Bernoulli(φ) is φ (1 - φ)."),
+         (1 - f, "is 1 - φ, the probability of the smaller value; the variance of floor(M W^(2)) + Bernoulli(φ) is "
+                 "φ (1 - φ), with φ = M W^(2) - floor(M W^(2))."),
+         (0.0, "would mean that N^(2) is always the same number, which happens only when M W^(2) is a whole number; "
+               "here it is not, so N^(2) takes two values."),
          (0.25, "is 1/4, the variance of a fair coin; here the larger value has probability "
-                "f = M W^1 - floor(M W^1), and Var = f (1 - f)."), (math.sqrt(f * (1 - f)), std)],
-        [(f * (1 - f), f"is f (1 - f), the systematic variance (or the residual one with R = 1). The residual "
-                       f"scheme draws {res} points multinomially from the residual weights f_i / R: "
-                       f"Var = R (f/R)(1 - f/R) = f (1 - f/R). Count R again."),
+                "φ = M W^(2) - floor(M W^(2)), and Var = φ (1 - φ)."), (math.sqrt(f * (1 - f)), std)],
+        [(f * (1 - f), f"is φ (1 - φ), the systematic variance (or the residual one with M̃ = 1). The residual "
+                       f"scheme draws {res} points multinomially from the residual weights φ^(i) / M̃: "
+                       f"Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃). Count M̃ again."),
          (M * w * (1 - w), f"is the multinomial variance over all M draws; in the residual scheme the "
-                           f"floor(M W^i) copies are fixed and only {res} draws are random: Var = f (1 - f/R)."),
-         (f * (1 - f / M), f"divides f by M; the residual weights f_i are normalised by their sum {res}, not by "
-                           f"M: Var = f (1 - f/R)."),
-         (R * f * (1 - f / R), "has an extra factor R: R draws with probability f/R each give "
-                               "Var = R (f/R)(1 - f/R) = f (1 - f/R)."), (math.sqrt(f * (1 - f / R)), std),
-         (other[3], zero)] + [(f * (1 - f / r), f"uses the wrong number of residual draws R: {res}, with the "
+                           f"floor(M W^(i)) copies are fixed and only {res} draws are random: Var = φ (1 - φ/M̃)."),
+         (f * (1 - f / M), f"divides φ by M; the residual weights φ^(i) are normalised by their sum {res}, not by "
+                           f"M: Var = φ (1 - φ/M̃)."),
+         (R * f * (1 - f / R), "has an extra factor M̃: M̃ draws with probability φ/M̃ each give "
+                               "Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃)."), (math.sqrt(f * (1 - f / R)), std),
+         (other[3], zero)] + [(f * (1 - f / r), f"uses the wrong number of residual draws M̃: {res}, with the "
                                                 f"floors of all four particles.") for r in range(2, M + 1)
                               if r != R]]
 
 
 def exercise_2(answer) -> Feedback:
-    """``answer_2 = np.array([E N_1, Var multinomial, Var systematic, Var residual])``, to 3 decimals."""
+    """``answer_2 = np.array([E N^(2), Var multinomial, Var systematic, Var residual])``, to 3 decimals."""
     what, order = "answer_2", "np.array([E_N1, var_multinomial, var_systematic, var_residual])"
     if answer is None or answer is Ellipsis:
         return _not_attempted(what)
@@ -253,13 +253,13 @@ def exercise_2(answer) -> Feedback:
     close = np.isclose(a, ref, rtol=0, atol=ATOL_HAND)
     if close.all():
         return Feedback(CORRECT, f"{what} matches the reference: all four schemes are unbiased (the same "
-                                 f"E[N_1]), and systematic resampling, whose count takes only the two whole "
-                                 f"numbers next to M W^1, adds the least noise here.")
+                                 f"E[N^(2)]), and systematic resampling, whose count takes only the two whole "
+                                 f"numbers next to M W^(2), adds the least noise here.")
     if sorted(np.round(a, 3)) == sorted(np.round(ref, 3)):
-        return _wrong(f"{what} has the right numbers in the wrong order: E[N_1], then the variances under "
+        return _wrong(f"{what} has the right numbers in the wrong order: E[N^(2)], then the variances under "
                       f"multinomial, systematic and residual resampling.")
     k = int(np.argmin(close))
-    label = f"{what}[{k}], the " + ("expected count E[N_1]," if k == 0 else "variance of N_1 under "
+    label = f"{what}[{k}], the " + ("expected count E[N^(2)]," if k == 0 else "variance of N^(2) under "
                                     f"{('multinomial', 'systematic', 'residual')[k - 1]} resampling,")
     message = next((m for v, m in _variants_2()[k] if abs(a[k] - v) <= ATOL_HAND < abs(v - ref[k])),
                    "is negative; a variance never is." if k > 0 and a[k] < -ATOL_HAND else
