@@ -116,7 +116,7 @@ def test_ex1_log_of_the_mean():
 def test_ex1_weights_instead_of_log_weights():
     _assert_wrong(ch05.exercise_1(lambda lw: (np.exp(right_log_normalize(lw)[0]),
                                               right_log_normalize(lw)[1])),
-                  "normalised weights W_i themselves")
+                  "normalised weights W^(i) themselves")
 
 
 def test_ex1_shifted_but_not_normalised():
@@ -217,7 +217,7 @@ def test_ex2_base_10():
 def test_ex2_sample_variance_and_max_weight():
     NW = 4 * np.array([0.4, 0.3, 0.2, 0.1])
     _assert_wrong(ch05.exercise_2([4 / (1 + np.var(NW, ddof=1)), RIGHT_2[1], RIGHT_2[2]]), "ddof=1")
-    _assert_wrong(ch05.exercise_2([1 / 0.4, RIGHT_2[1], RIGHT_2[2]]), "1 / max_i W^i")
+    _assert_wrong(ch05.exercise_2([1 / 0.4, RIGHT_2[1], RIGHT_2[2]]), "1 / max_i W^(i)")
 
 
 def test_ex2_order_and_shape():
@@ -405,7 +405,7 @@ def test_ex5_the_right_answer_is_accepted_in_several_forms():
 
 
 def test_ex5_the_damped_particle_included():
-    _assert_wrong(ch05.exercise_5(["a", "b", "c"]), "damped particle (a)", "section 8.1")
+    _assert_wrong(ch05.exercise_5(["a", "b", "c"]), "damped particle (a)", "section 15")
     _assert_wrong(ch05.exercise_5(["a"]), "damped particle (a)")
 
 

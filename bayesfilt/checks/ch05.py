@@ -28,7 +28,7 @@ ESS_GIVEN = ((0.4, 0.3, 0.2, 0.1), (1.0, 1.0, 2.0))   # exercise 2 (a), (b)
 A, C, Q, R, S = 0.9, 1.0, 1.0, 0.1, 1.1              # lg of section 4 (exercises 3-5); S = C Q C^T + R
 R_VALUES, N_4, T_4, RUNS_4, T_BOOT, T_OPT, SEEDS_4 = (0.01, 0.1, 1.0), 500, 40, 10, 5, 39, (14, 15)  # section 7
 TOL, ATOL_HAND = 1e-8, 2e-3     # computed answers; an ESS by hand, to 3 decimals
-SAMPLER = "section 8.1"         # "The optimal proposal: its sampler, and the damped particle"
+SAMPLER = "section 15"          # "The optimal proposal: its sampler, and the damped particle"
 LSE, NORM, S_ = "m + log sum_j e^(l_j - m)", "log W^(i) = l^(i) - log_sum", "S = C Q C^T + R"
 SHIFT = f"Factor out the largest log-weight m first: log sum_j e^(l_j) = {LSE}."
 ESS, ASK = "1 / sum_i (W^(i))^2", "Given x_(t-1), does y_t depend on w_(t-1)?"
@@ -93,7 +93,7 @@ def _pair_1(out, expected, what: str = "the output") -> Feedback:
     d, bad = a[~zero] - ref_W[~zero], ~np.isclose(a, ref_W, rtol=TOL, atol=TOL) & ~zero
     live, first = ~np.isneginf(lw), "Subtract the largest log-weight before np.exp."
     return _first(f"{what}: ", [(_close(a, v) and not _close(v, ref_W), msg) for v, msg in [
-        (np.exp(ref_W), f"log_W holds the normalised weights W_i themselves; return {NORM}."),
+        (np.exp(ref_W), f"log_W holds the normalised weights W^(i) themselves; return {NORM}."),
         (lw - m, "log_W is only shifted by m, not normalised: subtract log sum_j e^(l_j), not m."),
         (s - lw, f"log_W has the wrong sign: {NORM}."),
         (lw / s if s else np.nan, f"log_W divides by log_sum; in logs it is a subtraction: {NORM}."),
@@ -132,7 +132,7 @@ def exercise_2(answer) -> Feedback:
                 (1 / np.sum(w ** 2), "is 1 / sum_i (w^(i))^2 of the weights as given: normalise them first."),
                 (n / (1 + np.var(n * W, ddof=1)), "uses ddof=1 in N / (1 + var(N W)); section 6's identity "
                                                   "takes np.var(N * W) (ddof=0)."),
-                (1 / W.max(), f"is 1 / max_i W^i, another measure of degeneracy; the ESS is {ESS}."),
+                (1 / W.max(), f"is 1 / max_i W^(i), another measure of degeneracy; the ESS is {ESS}."),
                 (np.count_nonzero(w), f"counts the nonzero weights; the ESS weighs them: {ESS}.")]
     w, ww = "answer_2", ("the weights (0.4, 0.3, 0.2, 0.1)", "the unnormalised weights (1, 1, 2)",
                          "the log-weights (-1000, -1001, -1002, -inf)")
