@@ -208,8 +208,7 @@ def _meaning_feedback(meaning) -> Feedback:
                             "y_t) is what the grid computes, and you have just seen the two differ. "
                             "Conditioning a joint Gaussian: which estimator depends only on means and "
                             "covariances, all that the Kalman filter uses?",
-        # tests/test_exercises_ch02.py asks this message for the words "section 6 names an estimator"
-        "neither": "meaning_4: section 6 names an estimator (in the section conditioning a joint Gaussian) "
+        "neither": "meaning_4: the section conditioning a joint Gaussian names an estimator "
                    "that depends only on means and covariances, which is all that the Kalman filter uses; "
                    "with the same means and covariances, is its mean not that estimator?",
     }[chosen]) if chosen in ("conditional mean", "neither") else fb
