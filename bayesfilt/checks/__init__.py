@@ -544,7 +544,8 @@ def _describe_args(args: tuple) -> str:
             except Exception:  # noqa: BLE001 - a ragged list is described by its type
                 arr = None
         if arr is not None and arr.dtype.kind in "iuf" and arr.size <= 6:
-            parts.append(np.array2string(arr, precision=3, separator=", "))
+            # one line, whatever the shape: a message is read as a sentence
+            parts.append(" ".join(np.array2string(arr, precision=3, separator=", ").split()))
         elif arr is not None and arr.dtype.kind in "iuf":
             parts.append(f"array of shape {arr.shape}")
         else:
