@@ -98,7 +98,7 @@ def test_the_notebook_states_the_numbers_of_the_module():
     for state in ch04.H_STATES:
         shown = "[" + ", ".join(f"{v:g}" for v in state) + "]"
         assert shown in text1, shown
-    assert ch04.H_STATES[ch04.ON_THE_RY_AXIS][0] == 0.0 and "$r_x = 0$" in text1
+    assert ch04.H_STATES[ch04.ON_THE_RY_AXIS][0] == 0.0 and "$\\xi_x = 0$" in text1
     text2, answer2 = cells[2]["statement"], cells[2].get("given", "") + cells[2]["answer"]
     assert "0.1\\ \\mathrm{m}^2" in text2 and "0.01\\ \\mathrm{rad}^2" in text2
     np.testing.assert_array_equal(MODEL.R, R)
