@@ -1,10 +1,12 @@
-"""Checks of chapter 04's exercises (the EKF); references from bf.models, bf.ekf, bf.kalman, bf.gaussian. Diagnoses:
+"""Checks of chapter 04's exercises (the EKF); references from bf.models, bf.ekf, bf.kalman, bf.gaussian.
 
-1 range_bearing_jacobian: transposed, rows swapped, chapter 03's order, signs, rho vs rho^2, (2, 2), r_x = 0, by hand.
-2 converted_cov: no rho, J^T R J, stds, J R, R, a diagonal, from r_y, a precision; nees_2: over/underconfident, a sum.
-3 iterated_ekf_update: n_iter +- 1, repeated, from x^(i), the term missing or negated, no wrap, H at m0; answer_3.
-4 turn_jacobian: transposed, the omega column (zero, sign, d cos), clockwise, the position rows, the last row, 4 x 4.
-5 wrapped_innovation: the sign, no wrap, one side only, [0, 2 pi), the range wrapped, the bearing alone; -pi at pi.
+Diagnoses, exercise by exercise::
+
+    1 range_bearing_jacobian: transposed, rows swapped, chapter 03's order, signs, rho vs rho^2, (2, 2), r_x = 0, by hand.
+    2 converted_cov: no rho, J^T R J, stds, J R, R, a diagonal, from r_y, a precision; nees_2: over/underconfident, a sum.
+    3 iterated_ekf_update: n_iter +- 1, repeated, from x^(i), the term missing or negated, no wrap, H at m0; answer_3.
+    4 turn_jacobian: transposed, the omega column (zero, sign, d cos), clockwise, the position rows, the last row, 4 x 4.
+    5 wrapped_innovation: the sign, no wrap, one side only, [0, 2 pi), the range wrapped, the bearing alone; -pi at pi.
 """
 
 from __future__ import annotations
