@@ -5,11 +5,10 @@ student writes a number, an array or a small function, and a *check cell*
 that calls one function of this package::
 
     import bayesfilt as bf
-    K = ...                          # the student's answer
-    bf.checks.ch02.gain(K)           # prints: correct, or what differs
+    gain_2 = ...                                      # the student's answer
+    bf.checks.ch02.exercise_2(kalman_gain, gain_2)    # prints: correct, or what differs
 
-A check never raises and never prints the solution. It says one of three
-things:
+A check never prints the solution. It says one of three things:
 
 * **not attempted yet** - the answer is still ``None`` (or the function
   still raises ``NotImplementedError``), so "Run All" runs the whole chapter;
@@ -20,19 +19,20 @@ things:
   sign (an innovation written :math:`C\hat x - y`), a covariance that is not
   symmetric, a function that fails (with the input that broke it).
 
-The reference answers are computed here, by the library (``bf.kalman``,
-``bf.bayes``, ...), never stored in the notebook, so a student edition
+The references are computed by the library (``bf.kalman``, ``bf.bayes``, ...),
+never stored in the notebook, so a student edition
 (``tools/make_student_edition.py``) can hand out the check cells as they are.
 
-This module holds the generic comparisons and the engine every exercise runs
-through (:func:`exercise`); the chapter modules ``bf.checks.ch01`` ...
-``bf.checks.ch06`` hold one check per exercise. The engine wraps a student's
-function (:func:`guard`): each call has a time limit (:data:`TIME_LIMIT`,
-10 s, by ``SIGALRM`` on POSIX in the main thread; no limit elsewhere), and an
-argument or a chapter array changed in place ends the check with a "Not yet".
-Under nbgrader (``NBGRADER_EXECUTION`` set while it autogrades or validates) a
-check that is not correct raises ``AssertionError`` with its message, so the
-check cell loses its points; elsewhere a check never raises.
+This module holds the generic comparisons (:func:`compare_array`,
+:func:`compare_number`, :func:`compare_function`, :func:`compare_choice`) and the
+engine every exercise runs through (:func:`exercise`); the chapter modules
+``bf.checks.ch01`` ... ``bf.checks.ch06`` hold one check per exercise. The engine
+wraps a student's function (:func:`guard`): each call has a time limit
+(:data:`TIME_LIMIT`, 10 s, by ``SIGALRM`` on POSIX in the main thread; no limit
+elsewhere), and an argument or a chapter array changed in place ends the check with
+a "Not yet". A check never raises, except under nbgrader (``NBGRADER_EXECUTION``
+set while it autogrades or validates): there a check that is not correct raises
+``AssertionError`` with its message, so the check cell loses its points.
 """
 
 from __future__ import annotations
@@ -59,18 +59,20 @@ NOT_ATTEMPTED = "not attempted yet"
 CORRECT = "correct"
 INCORRECT = "not yet"
 
-_CHAPTERS = ("ch01", "ch02", "ch03", "ch04", "ch05", "ch06")
-
 #: Seconds a student's function may run on one test input before the check stops it. The
 #: environment variable BAYESFILT_CHECK_TIME_LIMIT overrides it (a test sets it low).
 TIME_LIMIT = float(os.environ.get("BAYESFILT_CHECK_TIME_LIMIT", "10"))
 
 
 class Feedback(NamedTuple):
-    """What a check says: ``status`` (one of the three above) and a ``message``.
+    """What a check says; its representation is the message, so a check cell shows it.
 
-    Its representation is the message, so a check as the last line of a
-    cell shows it.
+    Parameters
+    ----------
+    status : str
+        ``CORRECT``, ``INCORRECT`` or ``NOT_ATTEMPTED`` (the three statuses above).
+    message : str
+        What is right, or what differs.
     """
 
     status: str
@@ -99,17 +101,10 @@ def _wrong(message: str) -> Feedback:
     return Feedback(INCORRECT, message)
 
 
-# ---------------------------------------------------------------------------
-# The engine every exercise runs through (``exercise``): student functions guarded
-# (time limit, arguments and chapter variables changed in place), feedback for any
-# failure, and the nbgrader hook.
-# ---------------------------------------------------------------------------
+# --- the engine: student functions guarded (time limit, in-place changes), any failure a "Not yet"
 
 class _Stop(BaseException):
-    """A student's function misbehaved (endless loop, in-place change): the check ends here.
-
-    A BaseException, so that no ``except Exception`` of a chapter helper swallows it.
-    """
+    """A student's function misbehaved: the check ends (no ``except Exception`` swallows it)."""
 
     def __init__(self, message: str):
         super().__init__(message)
@@ -121,16 +116,23 @@ _timer_active = threading.local()
 
 @contextlib.contextmanager
 def time_limit(seconds: float | None, message: str):
-    """Stop the block with ``_Stop(message)`` after ``seconds`` (POSIX, main thread only).
+    """Stop the block after ``seconds``: inside a check, a "Not yet" saying ``message``.
 
-    Uses ``SIGALRM`` through ``signal.setitimer``, the handler and the timer restored on the
-    way out, so the kernel stays usable. Elsewhere (Windows, a thread) the block runs
-    without a limit; a long C call (one huge numpy operation) ends before the signal is seen.
+    ``SIGALRM`` through ``signal.setitimer`` (POSIX, main thread), the handler and the timer
+    restored on the way out, so the kernel stays usable. Elsewhere (Windows, a thread, inside
+    another limit) the block runs without a limit; a long C call (one huge numpy operation)
+    ends before the signal is seen.
+
+    Parameters
+    ----------
+    seconds : float or None
+        The limit; None or 0 for none.
+    message : str
+        What the check says when the block is stopped.
     """
-    usable = (seconds is not None and seconds > 0 and hasattr(signal, "setitimer")
-              and threading.current_thread() is threading.main_thread()
-              and not getattr(_timer_active, "on", False))
-    if not usable:
+    if (seconds is None or seconds <= 0 or not hasattr(signal, "setitimer")
+            or threading.current_thread() is not threading.main_thread()
+            or getattr(_timer_active, "on", False)):
         yield
         return
 
@@ -177,19 +179,9 @@ def _watched_globals(fun) -> dict:
         c = stack.pop()
         names.update(c.co_names)
         stack.extend(k for k in c.co_consts if inspect.iscode(k))
-    watched = {}
-    for name in sorted(names):
-        obj = space.get(name)
-        if isinstance(obj, np.ndarray) or (
-                (hasattr(obj, "_fields") or hasattr(obj, "__dataclass_fields__"))
-                and not isinstance(obj, type)):
-            watched[name] = obj
-    return watched
-
-
-def _restore(obj, old) -> None:
-    if isinstance(obj, np.ndarray) and obj.flags.writeable and obj.shape == old.shape:
-        obj[...] = old
+    return {name: obj for name in sorted(names) if isinstance(obj := space.get(name), np.ndarray)
+            or ((hasattr(obj, "_fields") or hasattr(obj, "__dataclass_fields__"))
+                and not isinstance(obj, type))}
 
 
 def _arg_names(fun, n: int) -> list[str]:
@@ -204,14 +196,26 @@ def _arg_names(fun, n: int) -> list[str]:
 def guard(fun, name: str | None = None, limit: float | None = None):
     """``fun`` wrapped for a check: a time limit per call, in-place changes detected.
 
-    A call that runs longer than ``limit`` seconds (default :data:`TIME_LIMIT`), that
-    changes one of its arguments in place, or that changes a chapter array it refers to
-    (``ys[40:50] = np.nan`` on the chapter's ``ys``) ends the whole check with a "Not yet"
-    naming the input; a changed chapter array is put back as it was.
+    A call that runs too long, that changes one of its arguments in place, or that changes a
+    chapter array it refers to (``ys[40:50] = np.nan`` on the chapter's ``ys``) ends the whole
+    check with a "Not yet" naming the input; a changed chapter array is put back as it was.
+
+    Parameters
+    ----------
+    fun : callable
+        The student's function.
+    name : str, optional
+        Its name in the messages (default: its ``__name__``, "your function" for a lambda).
+    limit : float, optional
+        Seconds per call (default :data:`TIME_LIMIT`).
+
+    Returns
+    -------
+    callable
+        ``fun`` guarded, with the same signature.
     """
     name = name or getattr(fun, "__name__", "your function")
-    if name == "<lambda>":
-        name = "your function"
+    name = "your function" if name == "<lambda>" else name
     watched = _watched_globals(fun)
 
     @functools.wraps(fun)
@@ -219,24 +223,24 @@ def guard(fun, name: str | None = None, limit: float | None = None):
         try:
             before = copy.deepcopy(args)
         except Exception:  # noqa: BLE001 - an argument we cannot copy is not watched
-            before = None
+            before = ()
         chapter = {k: copy.deepcopy(v) for k, v in watched.items()}
         seconds = TIME_LIMIT if limit is None else limit
         with time_limit(seconds, f"your function {name} did not return within {seconds:g} s: "
                                  f"an endless loop? (test input: {_describe_args(args)})"):
             out = fun(*args, **kwargs)
-        if before is not None:
-            for arg, now, then in zip(_arg_names(fun, len(args)), args, before):
-                if not _same(now, then):
-                    alias = "y" if arg == "x" else "x"
-                    raise _Stop(
-                        f"{name} changes its argument {arg} in place ({arg} /= ..., {arg} -= ..., "
-                        f"{arg}[...] = ..., or {alias} = {arg}; {alias} += ...): the caller's array changes "
-                        f"too. Work on a copy ({alias} = np.array({arg}, dtype=float)) or write "
-                        f"{alias} = {arg} + ... (test input: {_describe_args(before)}).")
+        for arg, now, then in zip(_arg_names(fun, len(args)), args, before):
+            if not _same(now, then):
+                alias = "y" if arg == "x" else "x"
+                raise _Stop(
+                    f"{name} changes its argument {arg} in place ({arg} /= ..., {arg} -= ..., "
+                    f"{arg}[...] = ..., or {alias} = {arg}; {alias} += ...): the caller's array "
+                    f"changes too. Work on a copy ({alias} = np.array({arg}, dtype=float)) or "
+                    f"write {alias} = {arg} + ... (test input: {_describe_args(before)}).")
         for k, then in chapter.items():
-            if not _same(watched[k], then):
-                _restore(watched[k], then)
+            if not _same(now := watched[k], then):
+                if isinstance(now, np.ndarray) and now.flags.writeable and now.shape == then.shape:
+                    now[...] = then                                        # put it back
                 raise _Stop(f"{name} changes the chapter's variable {k} in place: the rest of "
                             f"the chapter would see it changed. Work on a copy ({k}.copy()); the "
                             f"check has put {k} back as it was.")
@@ -245,22 +249,24 @@ def guard(fun, name: str | None = None, limit: float | None = None):
     return guarded
 
 
-def _graded(feedback: Feedback) -> Feedback:
-    """Under nbgrader (autograde or validate) an answer that is not correct fails its cell."""
-    if os.environ.get("NBGRADER_EXECUTION") and feedback.status != CORRECT:
-        raise AssertionError(repr(feedback))
-    return feedback
-
-
 def exercise(check: Callable) -> Callable:
     """Make ``check`` an exercise: never raises, student functions guarded, graded by nbgrader.
 
-    Every callable answer is wrapped by :func:`guard`; any failure inside the check
-    becomes a "Not yet" (an endless loop, an in-place change, an unforeseen exception).
-    In a notebook the result is shown as the cell's output. When nbgrader autogrades or
-    validates (it sets ``NBGRADER_EXECUTION`` in the kernel's environment), an answer that
-    is not correct raises ``AssertionError`` with the same message, so the cell loses its
-    points; the check runs once either way.
+    Every callable answer is wrapped by :func:`guard`; any failure inside the check becomes a
+    "Not yet" (an endless loop, an in-place change, an unforeseen exception). When nbgrader
+    autogrades or validates (it sets ``NBGRADER_EXECUTION`` in the kernel's environment), an
+    answer that is not correct raises ``AssertionError`` with the same message, so the cell
+    loses its points; the check runs once either way.
+
+    Parameters
+    ----------
+    check : callable
+        A function of the answers that returns a :class:`Feedback`.
+
+    Returns
+    -------
+    callable
+        ``check`` run as an exercise (``check`` itself if it is one already).
     """
     if getattr(check, "_is_exercise", False):
         return check
@@ -277,7 +283,9 @@ def exercise(check: Callable) -> Callable:
         except Exception as exc:  # noqa: BLE001 - a check never raises
             feedback = _wrong(f"the check could not read your answer ({type(exc).__name__}: "
                               f"{exc}); check its type and shape against the statement.")
-        return _graded(feedback)
+        if os.environ.get("NBGRADER_EXECUTION") and not feedback.correct:
+            raise AssertionError(repr(feedback))                 # nbgrader: the cell fails
+        return feedback
 
     run._is_exercise = True
     return run
@@ -289,6 +297,8 @@ def register(namespace: dict) -> None:
         if re.fullmatch(r"exercise_\d+", key) and callable(value):
             namespace[key] = exercise(value)
 
+
+# --- the comparisons -----------------------------------------------------------------------------
 
 def _frozen(a) -> np.ndarray:
     a = np.array(a, dtype=float)
@@ -305,28 +315,21 @@ def _matches(a: np.ndarray, wrong, rtol: float, atol: float) -> bool:
 
 def _combine(parts: Sequence[tuple[str, Feedback]]) -> Feedback:
     """One feedback for an exercise with several answers: correct when all are."""
-    statuses = [fb.status for _, fb in parts]
-    if all(s == CORRECT for s in statuses):
+    statuses = {fb.status for _, fb in parts}
+    if statuses <= {CORRECT}:
         return Feedback(CORRECT, " ".join(fb.message for _, fb in parts))
 
     def blank(name: str, fb: Feedback) -> str:
         unwritten = "NotImplementedError" in fb.message
         return f"{name} {'still raises NotImplementedError' if unwritten else 'is still None'}"
 
-    if all(s == NOT_ATTEMPTED for s in statuses):
+    if statuses == {NOT_ATTEMPTED}:
         return Feedback(NOT_ATTEMPTED, f"{' and '.join(blank(n, fb) for n, fb in parts)}; write "
                                        f"your answers in the cell above and run it, then run "
                                        f"this check again.")
-    lines = []
-    for name, fb in parts:
-        if fb.status == CORRECT:
-            lines.append(f"{name}: correct.")
-        elif fb.status == NOT_ATTEMPTED:
-            lines.append(f"{name}: not attempted yet ({blank(name, fb)}).")
-        else:
-            lines.append(fb.message)
-    status = INCORRECT if INCORRECT in statuses else NOT_ATTEMPTED
-    return Feedback(status, " ".join(lines))
+    return Feedback(INCORRECT if INCORRECT in statuses else NOT_ATTEMPTED, " ".join(
+        f"{name}: correct." if fb.correct else fb.message if fb.status == INCORRECT
+        else f"{name}: not attempted yet ({blank(name, fb)})." for name, fb in parts))
 
 
 def _as_numbers(answer, what: str):
@@ -375,19 +378,21 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
     if bad is not None:
         return bad
     e = np.asarray(expected, dtype=float)
+    close = functools.partial(np.allclose, rtol=rtol, atol=atol)
+    square = a.ndim == 2 and a.shape[0] == a.shape[1]
     if a.shape != e.shape:
-        if a.ndim == 2 and a.T.shape == e.shape and np.allclose(a.T, e, rtol=rtol, atol=atol):
+        if a.ndim == 2 and a.T.shape == e.shape and close(a.T, e):
             return _wrong(f"{what} is transposed: expected shape {e.shape}, got {a.shape}.")
-        if a.size == e.size and np.allclose(a.reshape(e.shape), e, rtol=rtol, atol=atol):
+        if a.size == e.size and close(a.reshape(e.shape), e):
             return _wrong(f"{what} has the right numbers in the wrong shape: expected shape "
                           f"{e.shape}, got {a.shape} (reshape it).")
         return _wrong(f"{what} has the wrong shape: expected {e.shape}, got {a.shape}.")
-    if np.allclose(a, e, rtol=rtol, atol=atol):
+    if close(a, e):
         return Feedback(CORRECT, f"{what} matches the reference.")
-    if np.any(e != 0) and np.allclose(-a, e, rtol=rtol, atol=atol):
+    if np.any(e != 0) and close(-a, e):
         return _wrong(f"{what} has the wrong sign (check the order of a difference, e.g. "
                       f"y - C x rather than C x - y).")
-    if a.ndim == 2 and a.shape[0] == a.shape[1] and np.allclose(a.T, e, rtol=rtol, atol=atol):
+    if square and close(a.T, e):
         return _wrong(f"{what} is transposed.")
     if probability and np.any(a < 0):
         return _wrong(f"{what} must be a probability vector, but it has a negative entry "
@@ -404,7 +409,7 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
                           f"factor such as 1/2 or 2 pi, missing or extra).")
     if probability and not np.isclose(a.sum(), 1.0):
         return _wrong(f"{what} must be a probability vector: its entries sum to {a.sum():.4g}.")
-    if a.ndim == 2 and a.shape[0] == a.shape[1] and np.allclose(e, e.T) and not np.allclose(a, a.T):
+    if square and np.allclose(e, e.T) and not np.allclose(a, a.T):
         return _wrong(f"{what} should be a covariance, which is symmetric; yours is not "
                       f"(max |A - A^T| = {np.max(np.abs(a - a.T)):.3g}).")
     k = _rounded_to(a, e)
@@ -419,9 +424,7 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
 def _rounded_to(a, e) -> int | None:
     """The number of decimals k (2-6) if ``a`` is the reference ``e`` rounded to k decimals."""
     a, e = np.asarray(a, dtype=float), np.asarray(e, dtype=float)
-    if a.shape != e.shape:
-        return None
-    for k in range(2, 7):
+    for k in range(2, 7) if a.shape == e.shape else ():
         r = np.round(e, k)
         if np.allclose(a, r, rtol=1e-12, atol=1e-12) and not np.allclose(r, e, rtol=1e-12, atol=0):
             return k
@@ -451,7 +454,24 @@ def _common_factor(a: np.ndarray, e: np.ndarray) -> float | None:
 
 def compare_number(answer, expected: float, what: str = "your answer", rtol: float = 1e-6,
                    atol: float = 1e-9) -> Feedback:
-    """Compare a number with the reference; says too large/too small, wrong sign, or a factor."""
+    """Compare a number with the reference; says too large/too small, wrong sign, or a factor.
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's answer (a one-entry array counts as a number); None means not
+        attempted.
+    expected : float
+        The reference (computed by the library, never shown).
+    what : str
+        How to name the answer in the message.
+    rtol, atol : float
+        Tolerances of ``np.isclose``.
+
+    Returns
+    -------
+    Feedback
+    """
     if answer is None or answer is Ellipsis:
         return _not_attempted(what)
     if isinstance(answer, np.ndarray) and answer.size == 1:
@@ -468,10 +488,9 @@ def compare_number(answer, expected: float, what: str = "your answer", rtol: flo
         return Feedback(CORRECT, f"{what} matches the reference.")
     if e != 0 and np.isclose(-a, e, rtol=rtol, atol=atol):
         return _wrong(f"{what} has the wrong sign.")
-    if e != 0 and a != 0 and _common_factor(np.array([a]), np.array([e])) is not None:
-        ratio = a / e
-        if ratio > 0 and _is_simple_factor(ratio):
-            return _wrong(f"{what} is off by a simple factor (2, 1/2 or 2 pi?).")
+    if (e != 0 and a != 0 and _common_factor(np.array([a]), np.array([e])) is not None
+            and a / e > 0 and _is_simple_factor(a / e)):
+        return _wrong(f"{what} is off by a simple factor (2, 1/2 or 2 pi?).")
     k = _rounded_to(a, e)
     if k is not None:
         return _more_decimals(what, k)
@@ -493,73 +512,98 @@ def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str
     cases : sequence of tuples
         Argument tuples; each is deep-copied, so a function that modifies its
         input cannot spoil the next case.
+    what : str
+        How to name the function in the message.
     compare : callable
         :func:`compare_array` or :func:`compare_number` (with ``**compare_kw``).
     mistakes : sequence of (callable, str)
         Named mistakes: a wrong implementation (same signature) and the message for an
         output that agrees with it where the reference does not.
+    **compare_kw
+        Passed on to ``compare`` (e.g. ``rtol``, ``atol``).
+
+    Returns
+    -------
+    Feedback
     """
+    def judge(out, where: str, args: tuple) -> Feedback:
+        result = compare(out, reference(*copy.deepcopy(args)), what=f"the output for {where}",
+                         **compare_kw)
+        if result.status == NOT_ATTEMPTED:
+            return _wrong(f"{what} returned None on {where}; did you forget `return`?")
+        for mistake, message in mistakes if not result.correct else ():
+            with contextlib.suppress(Exception):  # a mistake that does not apply here
+                if compare(out, mistake(*copy.deepcopy(args)), **compare_kw).correct:
+                    return _wrong(f"{what}, {where}: {message}")
+        return result
+
+    return _each_case(fun, what, cases, [_describe_args(args) for args in cases], judge)
+
+
+def _each_case(fun, what: str, cases: Sequence[tuple], labels: Sequence[str],
+               judge: Callable) -> Feedback:
+    """``fun`` on each case (deep-copied); ``judge(out, where, args)`` says what its output is."""
     if fun is None:
         return _not_attempted(what)
     if not callable(fun):
         return _wrong(f"{what} must be a function (def ...), got {type(fun).__name__}.")
-    for k, args in enumerate(cases):
-        shown = _describe_args(args)
+    for k, (args, label) in enumerate(zip(cases, labels)):
+        where = f"test input {k + 1} ({label})"
         try:
             out = fun(*copy.deepcopy(args))
         except NotImplementedError:
             return _not_written(what)
         except Exception as exc:  # noqa: BLE001 - any failure is feedback, not a crash
-            return _wrong(f"{what} fails on test input {k + 1} ({shown}): "
-                          f"{type(exc).__name__}: {exc}")
-        result = compare(out, reference(*copy.deepcopy(args)),
-                         what=f"the output for test input {k + 1} ({shown})", **compare_kw)
-        if result.status == NOT_ATTEMPTED:
-            return _wrong(f"{what} returned None on test input {k + 1} ({shown}); "
-                          f"did you forget `return`?")
-        if result.status != CORRECT:
-            for mistake, message in mistakes:
-                try:
-                    if compare(out, mistake(*copy.deepcopy(args)), **compare_kw).status == CORRECT:
-                        return _wrong(f"{what}, test input {k + 1} ({shown}): {message}")
-                except Exception:  # noqa: BLE001 - a mistake that does not apply here
-                    continue
-            return result
+            return _wrong(f"{what} fails on {where}: {type(exc).__name__}: {exc}")
+        if out is None:
+            return _wrong(f"{what} returned None on {where}; did you forget `return`?")
+        feedback = judge(out, where, args)
+        if not feedback.correct:
+            return feedback
     return Feedback(CORRECT, f"{what} agrees with the library on all {len(cases)} test inputs.")
 
 
 def _describe_args(args: tuple) -> str:
-    """The test inputs as a student can read them: small arrays in full, others by shape or type.
-
-    Only numbers, arrays and plain lists/tuples are read as arrays; anything else (a model, a
-    named tuple of arrays of different shapes, a function) is named by its type, so that
-    describing an input can never fail.
-    """
+    """The test inputs in words: small arrays in full, others by shape, anything else by type."""
     parts = []
     for a in args:
-        arr = None
+        arr = None     # only numbers, arrays and plain lists/tuples are read as arrays
         if isinstance(a, (numbers.Number, np.ndarray, np.generic)) or type(a) in (list, tuple):
-            try:
+            with contextlib.suppress(Exception):  # a ragged list is described by its type
                 arr = np.asarray(a)
-            except Exception:  # noqa: BLE001 - a ragged list is described by its type
-                arr = None
-        if arr is not None and arr.dtype.kind in "iuf" and arr.size <= 6:
-            # one line, whatever the shape: a message is read as a sentence
-            parts.append(" ".join(np.array2string(arr, precision=3, separator=", ").split()))
-        elif arr is not None and arr.dtype.kind in "iuf":
-            parts.append(f"array of shape {arr.shape}")
-        else:
+        if arr is None or arr.dtype.kind not in "iuf":
             parts.append(type(a).__name__)
+        elif arr.size <= 6:       # one line, whatever the shape: a message is read as a sentence
+            parts.append(" ".join(np.array2string(arr, precision=3, separator=", ").split()))
+        else:
+            parts.append(f"array of shape {arr.shape}")
     return ", ".join(parts)
 
 
 def compare_choice(answer, expected: str, options: Sequence[str], what: str = "your choice",
                    hint: str = "") -> Feedback:
-    """A choice among named options (case and surrounding spaces ignored)."""
+    """A choice among named options (case and surrounding spaces ignored).
+
+    Parameters
+    ----------
+    answer : str or None
+        The student's choice; None means not attempted.
+    expected : str
+        The right option.
+    options : sequence of str
+        Every option the statement names.
+    what : str
+        How to name the answer in the message.
+    hint : str
+        Added to the message of a wrong option.
+
+    Returns
+    -------
+    Feedback
+    """
     if answer is None or answer is Ellipsis:
         return _not_attempted(what)
-    names = [o.lower() for o in options]
-    if not isinstance(answer, str) or answer.strip().lower() not in names:
+    if not isinstance(answer, str) or answer.strip().lower() not in [o.lower() for o in options]:
         return _wrong(f"{what} must be one of {list(options)}, got {answer!r}.")
     if answer.strip().lower() == expected.lower():
         return Feedback(CORRECT, f"{what} is right.")
@@ -567,18 +611,19 @@ def compare_choice(answer, expected: str, options: Sequence[str], what: str = "y
 
 
 def __getattr__(name: str):
-    if name in _CHAPTERS or re.fullmatch(r"ch\d\d", name):
-        try:
-            module = importlib.import_module(f".{name}", __name__)
-        except ModuleNotFoundError as exc:
-            if exc.name != f"{__name__}.{name}":
-                raise  # the chapter module exists but an import inside it fails: show that
-            # No checks for this chapter (yet): an AttributeError, so hasattr() is False.
-            raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r} "
-                                 f"(there is no bayesfilt/checks/{name}.py)") from None
-        globals()[name] = module
-        return module
-    raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r}")
+    """``bf.checks.ch02`` and the like: a chapter's module, imported when first used."""
+    if not re.fullmatch(r"ch\d\d", name):
+        raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r}")
+    try:
+        module = importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise  # the chapter module exists but an import inside it fails: show that
+        # No checks for this chapter (yet): an AttributeError, so hasattr() is False.
+        raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r} "
+                             f"(there is no bayesfilt/checks/{name}.py)") from None
+    globals()[name] = module
+    return module
 
 
 def __dir__():
