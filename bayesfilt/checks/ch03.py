@@ -17,13 +17,12 @@ Diagnoses, exercise by exercise::
 
 from __future__ import annotations
 
-import copy
 import functools
 
 import numpy as np
 
-from . import (CORRECT, INCORRECT, Feedback, _as_numbers, _combine, _frozen, _not_attempted, _not_written, _wrong,
-               compare_choice, compare_number, register as _register)
+from . import (INCORRECT, Feedback, _as_numbers, _combine, _each_case, _frozen, _wrong, compare_choice,
+               compare_number, register as _register)
 from .ch01 import _hinted, _named
 from .. import gaussian, kalman, models
 
@@ -51,25 +50,6 @@ def _number(answer, expected, what, mistakes=(), rtol=0.0, atol=0.0, fallback=""
         if wrong is not None and (wrong(v) if callable(wrong) else np.isclose(v, wrong, rtol=rtol, atol=atol)):
             return _wrong(f"{label or what}: {message}")
     return _wrong(f"{what}: {fallback}") if fallback else fb
-
-
-def _each_case(fun, what, cases, judge, hint) -> Feedback:   # fun on each (label, *args); judge(out, where, *args)
-    if fun is None or fun is Ellipsis or not callable(fun):
-        return _not_attempted(what) if fun is None or fun is Ellipsis else _wrong(
-            f"{what} must be a function (def ...), got {type(fun).__name__}.")
-    for k, (label, *args) in enumerate(cases):
-        where = f"test input {k + 1} ({label})"
-        try:
-            out = _hinted(fun, hint)(*copy.deepcopy(args))
-        except NotImplementedError:
-            return _not_written(what)
-        except Exception as exc:  # noqa: BLE001 - any failure is feedback
-            return _wrong(f"{what} fails on {where}: {type(exc).__name__}: {exc}")
-        fb = _wrong(f"{what} returned None on {where}; did you forget `return`?") if out is None else judge(
-            out, where, *args)
-        if not fb.correct:
-            return fb
-    return Feedback(CORRECT, f"{what} agrees with the library on all {len(cases)} test inputs.")
 
 
 @functools.lru_cache(maxsize=None)
@@ -181,19 +161,21 @@ _NEES_MISTAKES = [
 
 def exercise_3(normalised_squared) -> Feedback:
     """normalised_squared(diffs, covs) against bf.gaussian.squared_mahalanobis on six inputs."""
-    def judge(out, where, d, P) -> Feedback:
-        w, T = f"normalised_squared, {where}", len(d)
+    def judge(out, where, args) -> Feedback:
+        (d, P), w, T = args, f"normalised_squared, {where}", len(args[0])
         return _named(out, _NIS(d, P), f"the output for {where}", [(wrong(d, P), f"{w}: {message}") for wrong, message
                                                                   in _NEES_MISTAKES] + [
             (lambda a: a.size == 1 and T > 1, f"{w}: you return a single number for {T} steps; return one value per "
              f"step, shape ({T},) (averaging them is the next step of the test)."),
             (lambda a: a.ndim >= 2 and a.shape[:2] == (T, T), lambda a: f"{w}: your array of shape {a.shape} pairs "
              f"every step with every other (a product over the time axis); pair d_t with its own P_t: shape ({T},).")])
-    return _each_case(normalised_squared, "normalised_squared", _nees_cases(), judge, lambda exc, args: (
+    fun = _hinted(None if normalised_squared is Ellipsis else normalised_squared, lambda exc, args: (
         " Hint: np.linalg.inv and np.linalg.solve take a stack (T, n, n) directly; for the vectors use d[..., None]."
         if isinstance(exc, np.linalg.LinAlgError) else f" Hint: diffs is (T, n) and covs (T, n, n); compute {_QUAD} "
         f"for each t (a loop, or np.einsum / np.linalg.solve on the stack)." if any(
             w in str(exc) for w in ("matmul", "align", "broadcast", "dimension")) else ""))
+    labels, d, P = zip(*_nees_cases())
+    return _each_case(fun, "normalised_squared", list(zip(d, P)), labels, judge)
 
 
 @functools.lru_cache(maxsize=None)
@@ -204,8 +186,9 @@ def _gap_var(length: int, offset: int = 0, k: int = _X1, t: int | None = None) -
     return float(kalman.kalman_filter(models.damped_particle(), ys).covs[t, k, k]) if 0 <= t < T else None
 
 
-def _gap_judge(fun, out, where, length) -> Feedback:
-    (a, bad), w, expected = _as_numbers(out, "the output"), f"end_of_gap_variance, {where}", _gap_var(length)
+def _gap_judge(fun, out, where, args) -> Feedback:
+    (length,), (a, bad) = args, _as_numbers(out, "the output")
+    w, expected = f"end_of_gap_variance, {where}", _gap_var(length)
     if bad is None and a.size > 1:
         return _wrong(f"{w}: you return the whole covariance P_t|t (4 x 4); return its (x1, x1) entry, a float."
                       if a.shape == (4, 4) and np.isclose(a[_X1, _X1], expected, rtol=1e-6) else
@@ -238,11 +221,11 @@ def exercise_4(end_of_gap_variance, slope) -> Feedback:
     v_lo, v_hi, d_log_l = _gap_var(lo), _gap_var(hi), np.log(hi / lo)
     expected, mixed = np.log(v_hi / v_lo) / d_log_l, "you mixed two logarithms ({}); use the same one for both."
     return _combine([
-        ("end_of_gap_variance", _each_case(fun, "end_of_gap_variance", [(f"length = {n}", n) for n in GAP_LENGTHS],
-                                           lambda out, where, n: _gap_judge(fun, out, where, n), lambda exc, args: (
+        ("end_of_gap_variance", _each_case(_hinted(None if fun is Ellipsis else fun, lambda exc, args: (
             " Hint: the run has T = 100 steps; the gap's last step is t = 39 + length (t = 99 for length = 60)." if
             isinstance(exc, IndexError) else " Hint: delete whole measurements, both components NaN: ys_cut[40:40 + "
-            "length] = np.nan." if "partly NaN" in str(exc) else ""))),
+            "length] = np.nan." if "partly NaN" in str(exc) else "")), "end_of_gap_variance", [(n,) for n in GAP_LENGTHS],
+            [f"length = {n}" for n in GAP_LENGTHS], functools.partial(_gap_judge, fun))),
         ("slope_4", _number(slope, expected, "slope_4", atol=ATOL_SLOPE, mistakes=[
             (expected / 2, "this is the standard deviation's slope; the variance's is twice it (log of a square)."),
             (np.log(_gap_var(hi, 1) / _gap_var(lo, 1)) / d_log_l, "this uses the variances at t = 40 + length, after "
