@@ -25,7 +25,8 @@ import numpy as np
 from scipy import stats
 
 from .. import gaussian, kalman, models, particle, resampling
-from . import CORRECT, Feedback, _as_numbers, _matches, _not_attempted, _not_written, _wrong
+from . import CORRECT, Feedback, _as_numbers, _each_case, _matches, _not_attempted, _wrong
+from .ch01 import _hinted
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4"]
 
@@ -135,26 +136,13 @@ def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | No
 
 def exercise_1(my_systematic) -> Feedback:
     """``my_systematic(w, u)`` against ``bf.resampling.from_uniforms(w, np.full(len(w), u))``."""
-    what, floats, cases = "my_systematic", False, _cases_1()
-    if my_systematic is None or my_systematic is Ellipsis:
-        return _not_attempted(what)
-    if not callable(my_systematic):
+    what, floats, cases = "my_systematic", [], _cases_1()
+    if my_systematic is not None and my_systematic is not Ellipsis and not callable(my_systematic):
         return _wrong(f"{what} must be a function (def my_systematic(w, u): ...), got "
                       f"{type(my_systematic).__name__}.")
-    for k, (w, u) in enumerate(cases):
-        n, weights = len(w), (f"w = {np.array2string(w, precision=3, separator=', ')}" if len(w) <= 6 else
-                              f"{len(w)} weights summing to {np.sum(w):.4g}")
-        s = f"test input {k + 1} ({weights}, u = {u:.4g})"
-        try:
-            out = my_systematic(w.copy(), u)
-        except NotImplementedError:
-            return _not_written(what)
-        except Exception as exc:  # noqa: BLE001 - the student's error is feedback
-            return _wrong(f"{what} fails on {s}: {type(exc).__name__}: {exc}" + (
-                " (an index past the end: is the last cumulative weight exactly 1? Divide the cumulative sums "
-                "by the last one.)" if isinstance(exc, IndexError) else ""))
-        if out is None:
-            return _wrong(f"{what} returned None on {s}; did you forget `return`?")
+
+    def judge(out, s: str, args) -> Feedback:
+        (w, u), n = args, len(args[0])
         a, bad = _as_numbers(out, f"the output of {what} on {s}")
         if bad is not None:
             return bad
@@ -177,13 +165,20 @@ def exercise_1(my_systematic) -> Feedback:
                                   f"numbers. Systematic resampling is a fixed function of the weights and the "
                                   f"given u (the comb p_j = (j + u)/N): no generator, no bf.resampling.")
             return feedback
-        floats |= np.asarray(out).dtype.kind == "f"
-    if floats:
+        floats.append(np.asarray(out).dtype.kind == "f")
+        return Feedback(CORRECT, "")
+
+    labels = [(f"w = {np.array2string(w, precision=3, separator=', ')}" if len(w) <= 6 else
+               f"{len(w)} weights summing to {np.sum(w):.4g}") + f", u = {u:.4g}" for w, u in cases]
+    fb = _each_case(_hinted(None if my_systematic is Ellipsis else my_systematic, lambda exc, args: (
+        " (an index past the end: is the last cumulative weight exactly 1? Divide the cumulative sums by the last "
+        "one.)" if isinstance(exc, IndexError) else "")), what, cases, labels, judge)
+    if fb.correct and any(floats):
         return _wrong(f"{what} returns the right ancestors as floating-point numbers; indices must be integers "
                       f"(x[a] fails with a float array): np.searchsorted returns integers, or use .astype(int).")
     return Feedback(CORRECT, f"{what} agrees with bf.resampling.from_uniforms on all {len(cases)} test inputs "
                              f"(u = 0, a degenerate set, zero weights, unnormalised weights, one particle, "
-                             f"N = 1000).")
+                             f"N = 1000).") if fb.correct else fb
 
 
 # --- exercise 2: the offspring count of particle 1 --------------------------------------------------------
