@@ -35,8 +35,6 @@ set while it autogrades or validates): there a check that is not correct raises
 ``AssertionError`` with its message, so the check cell loses its points.
 """
 
-from __future__ import annotations
-
 import contextlib
 import copy
 import functools

@@ -14,8 +14,6 @@ Diagnoses, exercise by exercise::
       growth, a standard deviation, a second moment, the spread about the commanded move.
 """
 
-from __future__ import annotations
-
 import functools
 import math
 import numbers
@@ -24,7 +22,7 @@ import numpy as np
 
 from .. import bayes
 from . import (CORRECT, INCORRECT, Feedback, compare_array, compare_function, compare_number,
-               _common_factor, _matches, _not_attempted, _wrong)
+               _common_factor, _matches, _not_attempted, _wrong, register as _register)
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
 
@@ -341,7 +339,5 @@ def exercise_5(answer) -> Feedback:
         f"The belief after {m} predictions from cell 0 has this mean and variance: prediction alone "
         f"only blurs the belief."))
 
-
-from . import register as _register  # noqa: E402
 
 _register(globals())

@@ -15,15 +15,13 @@ Diagnoses, exercise by exercise::
       cross term in Sigma_yy, the sign of D, D^T for D; failures hinted (shapes).
 """
 
-from __future__ import annotations
-
 import functools
 import numbers
 
 import numpy as np
 
 from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _combine, _frozen, _not_attempted,
-               _wrong, compare_array, compare_choice, compare_function)
+               _wrong, compare_array, compare_choice, compare_function, register as _register)
 from .ch01 import _hinted, _named
 from .. import bayes, gaussian, kalman, models
 
@@ -292,7 +290,5 @@ def exercise_5(correlated_gain) -> Feedback:
                             [tuple(map(np.array, case)) for case in cases], what="correlated_gain",
                             mistakes=_CORRELATED_MISTAKES)
 
-
-from . import register as _register  # noqa: E402
 
 _register(globals())

@@ -9,8 +9,6 @@ Diagnoses, exercise by exercise::
     5 wrapped_innovation: the sign, no wrap, one side only, [0, 2 pi), the range wrapped, the bearing alone; -pi at pi.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import functools
 
@@ -18,7 +16,7 @@ import numpy as np
 
 from .. import ekf, gaussian, kalman, models
 from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _frozen, _matches, _not_attempted, _wrong,
-               compare_array, compare_function, compare_number)
+               compare_array, compare_function, compare_number, register as _register)
 from .ch01 import _hinted
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
@@ -368,7 +366,5 @@ def exercise_5(wrapped_innovation) -> Feedback:
                    compare=compare)
     return Feedback(CORRECT, fb.message + "".join(remark)) if fb.correct else fb
 
-
-from . import register as _register  # noqa: E402
 
 _register(globals())

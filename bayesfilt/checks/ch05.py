@@ -10,8 +10,6 @@ Diagnoses, exercise by exercise::
     5 answer_5, the models whose optimal proposal is not the transition: the form, none, each side's hint.
 """
 
-from __future__ import annotations
-
 import functools
 import math
 import numbers
@@ -21,7 +19,7 @@ import numpy as np
 
 from .. import models, particle
 from . import (CORRECT, INCORRECT, Feedback, _as_numbers, _not_attempted, _wrong, compare_function,
-               compare_number)
+               compare_number, register as _register)
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
 
@@ -314,7 +312,5 @@ def exercise_5(answer) -> Feedback:
         (chosen - expected, f" includes {hints[extra[0]]} If not, the optimal proposal is the transition."),
         (True, f" leaves out {hints[missing[0]]} If so, the optimal proposal differs from the transition.")])
 
-
-from . import register as _register  # noqa: E402
 
 _register(globals())

@@ -13,8 +13,6 @@ Diagnoses, exercise by exercise::
         runs) and the verdict: the median NEES against the median of chi2_4.
 """
 
-from __future__ import annotations
-
 import contextlib
 import functools
 import math
@@ -25,7 +23,8 @@ import numpy as np
 from scipy import stats
 
 from .. import gaussian, kalman, models, particle, resampling
-from . import CORRECT, Feedback, _as_numbers, _each_case, _matches, _not_attempted, _wrong
+from . import (CORRECT, Feedback, _as_numbers, _each_case, _matches, _not_attempted, _wrong,
+               register as _register)
 from .ch01 import _hinted
 
 __all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4"]
@@ -405,7 +404,5 @@ def exercise_4(answer, n_particles: int = N_BEFORE_4) -> Feedback:
                              f"the vehicle; enough jitter keeps track, at the price of a covariance larger than "
                              f"the errors (roughening is artificial process noise).")
 
-
-from . import register as _register  # noqa: E402
 
 _register(globals())
