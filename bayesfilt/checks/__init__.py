@@ -19,20 +19,15 @@ A check never prints the solution. It says one of three things:
   sign (an innovation written :math:`C\hat x - y`), a covariance that is not
   symmetric, a function that fails (with the input that broke it).
 
-The references are computed by the library (``bf.kalman``, ``bf.bayes``, ...),
-never stored in the notebook, so a student edition
-(``tools/make_student_edition.py``) can hand out the check cells as they are.
-
-This module holds the generic comparisons (:func:`compare_array`,
-:func:`compare_number`, :func:`compare_function`, :func:`compare_choice`) and the
-engine every exercise runs through (:func:`exercise`); the chapter modules
-``bf.checks.ch01`` ... ``bf.checks.ch06`` hold one check per exercise. The engine
-wraps a student's function (:func:`guard`): each call has a time limit
-(:data:`TIME_LIMIT`, 10 s, by ``SIGALRM`` on POSIX in the main thread; no limit
-elsewhere), and an argument or a chapter array changed in place ends the check with
-a "Not yet". A check never raises, except under nbgrader (``NBGRADER_EXECUTION``
-set while it autogrades or validates): there a check that is not correct raises
-``AssertionError`` with its message, so the check cell loses its points.
+The references are computed by the library, never stored in the notebook, so a
+student edition (``tools/make_student_edition.py``) hands out the check cells as
+they are. The chapter modules ``bf.checks.ch01`` ... ``bf.checks.ch06`` hold one
+check per exercise, built on the comparisons here (:func:`compare_array`,
+:func:`compare_number`, :func:`compare_function`, :func:`compare_choice`) and run
+through one engine (:func:`exercise`): a student's function runs under a time limit
+(:data:`TIME_LIMIT`), an argument or a chapter array it changes in place ends the
+check with a "Not yet" (:func:`guard`), and a check never raises, except under
+nbgrader, where a check that is not correct fails its cell.
 """
 
 import contextlib
@@ -85,14 +80,11 @@ class Feedback(NamedTuple):
         return self.status == CORRECT
 
 
-def _not_attempted(what: str) -> Feedback:
-    return Feedback(NOT_ATTEMPTED, f"{what} is still None; write your answer in the cell above "
-                                   f"and run it, then run this check again.")
-
-
-def _not_written(what: str) -> Feedback:
-    return Feedback(NOT_ATTEMPTED, f"{what} still raises NotImplementedError; write its body in "
-                                   f"the cell above and run it, then run this check again.")
+def _not_attempted(what: str, unwritten: bool = False) -> Feedback:
+    todo = "still raises NotImplementedError; write its body" if unwritten else (
+        "is still None; write your answer")
+    return Feedback(NOT_ATTEMPTED, f"{what} {todo} in the cell above and run it, then run this "
+                                   f"check again.")
 
 
 def _wrong(message: str) -> Feedback:
@@ -102,11 +94,8 @@ def _wrong(message: str) -> Feedback:
 # --- the engine: student functions guarded (time limit, in-place changes), any failure a "Not yet"
 
 class _Stop(BaseException):
-    """A student's function misbehaved: the check ends (no ``except Exception`` swallows it)."""
-
-    def __init__(self, message: str):
-        super().__init__(message)
-        self.message = message
+    """_Stop(message): a student's function misbehaved, the check ends with a "Not yet" saying
+    message (a BaseException, so that no ``except Exception`` of a chapter helper swallows it)."""
 
 
 _timer_active = threading.local()
@@ -277,7 +266,7 @@ def exercise(check: Callable) -> Callable:
                 warnings.simplefilter("ignore")
                 feedback = check(*guarded, **kwargs)
         except _Stop as stop:
-            feedback = _wrong(stop.message)
+            feedback = _wrong(stop.args[0])
         except Exception as exc:  # noqa: BLE001 - a check never raises
             feedback = _wrong(f"the check could not read your answer ({type(exc).__name__}: "
                               f"{exc}); check its type and shape against the statement.")
@@ -410,28 +399,22 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
     if square and np.allclose(e, e.T) and not np.allclose(a, a.T):
         return _wrong(f"{what} should be a covariance, which is symmetric; yours is not "
                       f"(max |A - A^T| = {np.max(np.abs(a - a.T)):.3g}).")
-    k = _rounded_to(a, e)
-    if k is not None:
-        return _more_decimals(what, k)
     wrong = ~np.isclose(a, e, rtol=rtol, atol=atol)
     where = tuple(int(i) for i in np.argwhere(wrong)[0])
-    return _wrong(f"{what} has the right shape but {int(wrong.sum())} of {a.size} entries "
-                  f"differ from the reference (the first at index {where}).")
+    return _rounded(what, a, e) or _wrong(f"{what} has the right shape but {int(wrong.sum())} of "
+                                          f"{a.size} entries differ from the reference (the first "
+                                          f"at index {where}).")
 
 
-def _rounded_to(a, e) -> int | None:
-    """The number of decimals k (2-6) if ``a`` is the reference ``e`` rounded to k decimals."""
+def _rounded(what: str, a, e) -> Feedback | None:
+    """A "Not yet" if ``a`` is the reference ``e`` rounded to k = 2, ..., 6 decimals, else None."""
     a, e = np.asarray(a, dtype=float), np.asarray(e, dtype=float)
     for k in range(2, 7) if a.shape == e.shape else ():
         r = np.round(e, k)
         if np.allclose(a, r, rtol=1e-12, atol=1e-12) and not np.allclose(r, e, rtol=1e-12, atol=0):
-            return k
+            return _wrong(f"{what} looks rounded to {k} decimals: the check needs more than that; "
+                          f"give more decimals (do not round, keep the full float).")
     return None
-
-
-def _more_decimals(what: str, k: int) -> Feedback:
-    return _wrong(f"{what} looks rounded to {k} decimal{'s' if k != 1 else ''}: the check needs "
-                  f"more than that; give more decimals (do not round, keep the full float).")
 
 
 def _is_simple_factor(ratio: float) -> bool:
@@ -489,10 +472,7 @@ def compare_number(answer, expected: float, what: str = "your answer", rtol: flo
     if (e != 0 and a != 0 and _common_factor(np.array([a]), np.array([e])) is not None
             and a / e > 0 and _is_simple_factor(a / e)):
         return _wrong(f"{what} is off by a simple factor (2, 1/2 or 2 pi?).")
-    k = _rounded_to(a, e)
-    if k is not None:
-        return _more_decimals(what, k)
-    return _wrong(f"{what} is too {'large' if a > e else 'small'}.")
+    return _rounded(what, a, e) or _wrong(f"{what} is too {'large' if a > e else 'small'}.")
 
 
 def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str = "your function",
@@ -550,7 +530,7 @@ def _each_case(fun, what: str, cases: Sequence[tuple], labels: Sequence[str],
         try:
             out = fun(*copy.deepcopy(args))
         except NotImplementedError:
-            return _not_written(what)
+            return _not_attempted(what, unwritten=True)
         except Exception as exc:  # noqa: BLE001 - any failure is feedback, not a crash
             return _wrong(f"{what} fails on {where}: {type(exc).__name__}: {exc}")
         if out is None:
