@@ -105,10 +105,8 @@ _timer_active = threading.local()
 def time_limit(seconds: float | None, message: str):
     """Stop the block after ``seconds``: inside a check, a "Not yet" saying ``message``.
 
-    ``SIGALRM`` through ``signal.setitimer`` (POSIX, main thread), the handler and the timer
-    restored on the way out, so the kernel stays usable. Elsewhere (Windows, a thread, inside
-    another limit) the block runs without a limit; a long C call (one huge numpy operation)
-    ends before the signal is seen.
+    ``SIGALRM`` by ``signal.setitimer`` (POSIX, main thread; elsewhere no limit), the handler
+    and timer restored on the way out; a long C call (one huge numpy operation) ends first.
 
     Parameters
     ----------
@@ -183,9 +181,9 @@ def _arg_names(fun, n: int) -> list[str]:
 def guard(fun, name: str | None = None, limit: float | None = None):
     """``fun`` wrapped for a check: a time limit per call, in-place changes detected.
 
-    A call that runs too long, that changes one of its arguments in place, or that changes a
-    chapter array it refers to (``ys[40:50] = np.nan`` on the chapter's ``ys``) ends the whole
-    check with a "Not yet" naming the input; a changed chapter array is put back as it was.
+    A call that runs too long, or changes in place an argument or a chapter array it refers to
+    (``ys[40:50] = np.nan`` on the chapter's ``ys``, put back as it was), ends the check with a
+    "Not yet" naming the input.
 
     Parameters
     ----------
@@ -199,7 +197,6 @@ def guard(fun, name: str | None = None, limit: float | None = None):
     Returns
     -------
     callable
-        ``fun`` guarded, with the same signature.
     """
     name = name or getattr(fun, "__name__", "your function")
     name = "your function" if name == "<lambda>" else name
@@ -240,10 +237,8 @@ def exercise(check: Callable) -> Callable:
     """Make ``check`` an exercise: never raises, student functions guarded, graded by nbgrader.
 
     Every callable answer is wrapped by :func:`guard`; any failure inside the check becomes a
-    "Not yet" (an endless loop, an in-place change, an unforeseen exception). When nbgrader
-    autogrades or validates (it sets ``NBGRADER_EXECUTION`` in the kernel's environment), an
-    answer that is not correct raises ``AssertionError`` with the same message, so the cell
-    loses its points; the check runs once either way.
+    "Not yet". When nbgrader autogrades or validates (``NBGRADER_EXECUTION`` set), an answer
+    that is not correct raises ``AssertionError`` with its message: the cell loses its points.
 
     Parameters
     ----------
@@ -440,14 +435,11 @@ def compare_number(answer, expected: float, what: str = "your answer", rtol: flo
     Parameters
     ----------
     answer : float or None
-        The student's answer (a one-entry array counts as a number); None means not
-        attempted.
+        The student's answer (a one-entry array counts); None means not attempted.
     expected : float
         The reference (computed by the library, never shown).
-    what : str
-        How to name the answer in the message.
-    rtol, atol : float
-        Tolerances of ``np.isclose``.
+    what, rtol, atol
+        As in :func:`compare_array`.
 
     Returns
     -------
@@ -492,13 +484,11 @@ def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str
         input cannot spoil the next case.
     what : str
         How to name the function in the message.
-    compare : callable
-        :func:`compare_array` or :func:`compare_number` (with ``**compare_kw``).
+    compare, **compare_kw
+        :func:`compare_array` or :func:`compare_number`, and its ``rtol``, ``atol``, ...
     mistakes : sequence of (callable, str)
         Named mistakes: a wrong implementation (same signature) and the message for an
         output that agrees with it where the reference does not.
-    **compare_kw
-        Passed on to ``compare`` (e.g. ``rtol``, ``atol``).
 
     Returns
     -------
@@ -570,10 +560,8 @@ def compare_choice(answer, expected: str, options: Sequence[str], what: str = "y
         The right option.
     options : sequence of str
         Every option the statement names.
-    what : str
-        How to name the answer in the message.
-    hint : str
-        Added to the message of a wrong option.
+    what, hint : str
+        How to name the answer in the message; a hint for a wrong option.
 
     Returns
     -------
