@@ -520,14 +520,14 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
     prior = prior / prior.sum()
     time_varying = getattr(model, "time_varying", False)
     trans = None
+    # every (from, to) pair of cells at once: row i * n + j pairs from = g_i with to = g_j
+    x_from, x_to = np.repeat(cells, g.shape[0], axis=0), np.tile(cells, (g.shape[0], 1))
     T = ys.shape[0]
     posteriors, loglik = np.empty((T, g.shape[0])), 0.0
     for t in range(T):
         if t > 0:
             if trans is None or time_varying:
                 # transition[i, j] ∝ p(x_t = g_j | x_(t-1) = g_i)
-                # every (from, to) pair of cells at once: row i = from g_i
-                x_from, x_to = np.repeat(cells, g.shape[0], axis=0), np.tile(cells, (g.shape[0], 1))
                 log_p = model.transition_logpdf(x_to, x_from, t=t - 1).reshape(g.shape[0], -1)
                 trans = _row_normalised_exp(log_p, "the transition density")
             prior = posteriors[t - 1] @ trans

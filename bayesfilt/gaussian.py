@@ -297,7 +297,11 @@ def _logpdf_rows(d: np.ndarray, L: np.ndarray, L_inv: np.ndarray | None = None) 
     maha = np.einsum("...i,...i->...", z, z)
     # log det P = 2 sum_i log L_ii
     log_det = 2.0 * np.log(L.diagonal(0, -2, -1)).sum(axis=-1)
-    return -0.5 * (maha + log_det + L.shape[-1] * LOG_2PI)
+    # -(maha + log det P + n log 2 pi) / 2, in place: maha is as long as d, and fresh
+    # memory of that size costs page faults
+    maha += log_det + L.shape[-1] * LOG_2PI
+    maha *= -0.5
+    return maha
 
 
 def sample(rng: np.random.Generator, mean, cov, size: int) -> np.ndarray:

@@ -569,6 +569,9 @@ class NonlinearGaussian(_ModelBase):
     def residual(self, y, y_pred) -> np.ndarray:
         """Innovation: ``residual_fn(y, y_pred)`` if given, else ``y - y_pred``."""
         y, y_pred = np.asarray(y, float), np.asarray(y_pred, float)
+        for name, a in (("y", y), ("y_pred", y_pred)):
+            if a.ndim == 0 or a.shape[-1] != self.obs_dim:
+                raise ValueError(f"{name} must have shape (..., {self.obs_dim}), got shape {a.shape}")
         if self.residual_fn is None:
             return super().residual(y, y_pred)
         shape = np.broadcast_shapes(y.shape, y_pred.shape)
@@ -740,20 +743,40 @@ def wrap_angle(angle):
         :math:`\pi - ((\pi - a) \bmod 2\pi)`, so that :math:`\pi` maps to
         :math:`\pi` and :math:`-\pi` to :math:`\pi`.
     """
-    angle = as_array("angle", angle)
+    return _wrap(as_array("angle", angle))
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    # pi - ((pi - a) mod 2 pi), in (-pi, pi]
     return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
 
 
 def range_bearing_residual(y, y_pred) -> np.ndarray:
-    """Range-bearing innovation: plain difference for the range, wrapped for the bearing."""
+    """Range-bearing innovation: plain difference for the range, wrapped for the bearing.
+
+    Parameters
+    ----------
+    y, y_pred : array_like, shape (..., 2)
+        Measured and predicted (range, bearing) pairs; leading axes broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+        ``y - y_pred`` with the bearing difference wrapped into (-pi, pi].
+    """
     y, y_pred = as_array("y", y), as_array("y_pred", y_pred)
     for name, a in (("y", y), ("y_pred", y_pred)):
         if a.ndim == 0 or a.shape[-1] != 2:
             raise ValueError(f"{name} must have shape (..., 2) (range, bearing), got shape {a.shape}")
+    return _range_bearing_residual(y, y_pred)
+
+
+def _range_bearing_residual(y: np.ndarray, y_pred: np.ndarray) -> np.ndarray:
+    """:func:`range_bearing_residual` of checked arrays: the model's residual_fn, called every
+    step on every particle (its output is checked by NonlinearGaussian.residual)."""
     r = y - y_pred
-    r = np.array(r, dtype=float)  # writable copy
     # the bearing difference is an angle: wrap it into (-pi, pi]
-    r[..., 1] = wrap_angle(r[..., 1])
+    r[..., 1] = _wrap(r[..., 1])
     return r
 
 
@@ -837,7 +860,7 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
     return NonlinearGaussian(f=f, F=F, h=h, H=H, Q=velocity_var * np.eye(2),
                              R=np.diag([range_var, bearing_var]),
                              m0=m0, P0=prior_var * np.eye(4), G=G,
-                             residual_fn=range_bearing_residual,
+                             residual_fn=_range_bearing_residual,
                              state_names=("r_x", "r_y", "v_x", "v_y"),
                              position_names=("r_x", "r_y"))
 

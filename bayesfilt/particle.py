@@ -247,14 +247,17 @@ def weighted_mean_cov(particles, weights) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _mean_cov(X, W):
-    # The sums over the N particles are written with einsum, index by index as in
-    # the equations. (A matrix product would hand them to OpenBLAS, whose threads,
-    # on a busy machine, can make such a product on a tall array 10-100 times slower.)
-    # x_bar_j = sum_i W_i x_ij
-    mean = np.einsum("i,ij->j", W, X)
-    D = X - mean
-    # P_jk = sum_i W_i (x_ij - x_bar_j)(x_ik - x_bar_k)
-    cov = np.einsum("i,ij,ik->jk", W, D, D)
+    # The sums run over the N particles. numpy sums fastest along a contiguous axis,
+    # so they are taken on the transpose X^T (n, N), one row per state component,
+    # and written with einsum, index by index as in the equations. (A matrix product
+    # would hand them to OpenBLAS, whose threads, on a busy machine, can make such a
+    # product on a tall array 10-100 times slower.)
+    Xt = X.T.copy()
+    # x_bar_j = sum_i W_i x_ji
+    mean = np.einsum("ji,i->j", Xt, W)
+    Dt = Xt - mean[:, None]
+    # P_jk = sum_i W_i (x_ji - x_bar_j)(x_ki - x_bar_k)
+    cov = np.einsum("ji,ki->jk", Dt * W, Dt)
     return mean, 0.5 * (cov + cov.T)
 
 
@@ -626,8 +629,9 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
             log_W = np.full(N, -np.log(N))
             resampled[t] = True
             if roughening is not None:
-                # sigma_k = K E_k N^(-1/n), E_k the range of component k
-                sigma = roughening * np.ptp(X, axis=0) * N ** (-1.0 / n)
+                # sigma_k = K E_k N^(-1/n), E_k the range of component k (taken on the
+                # transpose, one contiguous row per component, as in _mean_cov)
+                sigma = roughening * np.ptp(X.T.copy(), axis=1) * N ** (-1.0 / n)
                 X = X + sigma * rng.standard_normal(X.shape)
         else:
             parents = np.arange(N)
