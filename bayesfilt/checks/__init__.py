@@ -33,7 +33,7 @@ nbgrader, where a check that is not correct fails its cell.
 import contextlib
 import copy
 import functools
-import importlib
+import importlib.util
 import inspect
 import numbers
 import os
@@ -580,16 +580,10 @@ def __getattr__(name: str):
     """``bf.checks.ch02`` and the like: a chapter's module, imported when first used."""
     if not re.fullmatch(r"ch\d\d", name):
         raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r}")
-    try:
-        module = importlib.import_module(f".{name}", __name__)
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise  # the chapter module exists but an import inside it fails: show that
-        # No checks for this chapter (yet): an AttributeError, so hasattr() is False.
+    if importlib.util.find_spec(f"{__name__}.{name}") is None:  # an AttributeError: hasattr() False
         raise AttributeError(f"module 'bayesfilt.checks' has no attribute {name!r} "
-                             f"(there is no bayesfilt/checks/{name}.py)") from None
-    globals()[name] = module
-    return module
+                             f"(there is no bayesfilt/checks/{name}.py)")
+    return importlib.import_module(f".{name}", __name__)  # an import failing inside it shows
 
 
 def __dir__():
