@@ -421,7 +421,20 @@ def grid_likelihood(grid, y, density: Callable) -> np.ndarray:
 def gaussian_likelihood(grid, y: float, std: float) -> np.ndarray:
     r"""Likelihood of a position measurement :math:`y = x + v`, :math:`v \sim N(0, \sigma^2)`.
 
-    Returns :math:`N(y; g_j, \sigma^2)` for every cell centre :math:`g_j`, shape (n,).
+    Parameters
+    ----------
+    grid : array_like, shape (n,)
+        Cell centres :math:`g_j`, strictly increasing.
+    y : float
+        The measured position (one number, or an array of shape (1,)).
+    std : float
+        Measurement-noise standard deviation :math:`\sigma > 0`, in the units of ``grid``.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        :math:`N(y; g_j, \sigma^2)` for every cell centre :math:`g_j` (a density in y, not
+        normalised over the grid).
     """
     g = _as_grid(grid)
     std = as_positive_float("std", std)

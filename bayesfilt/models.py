@@ -584,6 +584,16 @@ def to_nonlinear(model: LinearGaussian) -> NonlinearGaussian:
     Useful to check that an EKF reduces to the Kalman filter on a linear model.
     :class:`NonlinearGaussian` takes no control input, so a model with a
     control matrix B is refused rather than silently stripped of it.
+
+    Parameters
+    ----------
+    model : LinearGaussian
+        Without a control matrix B.
+
+    Returns
+    -------
+    NonlinearGaussian
+        With f(x) = A x, F(x) = A, h(x) = C x, H(x) = C and the same Q, R, G, m0, P0 and names.
     """
     if not isinstance(model, LinearGaussian):
         raise TypeError(f"model must be a LinearGaussian, got {type(model).__name__}")
@@ -871,6 +881,13 @@ def positions(model, xs) -> np.ndarray:
     ``positions(model, xs)`` is ``xs[..., model.index_of(*model.position_names)]``:
     columns 0 and 2 for the damped particle ``[x1, x1_dot, x2, x2_dot]``,
     columns 0 and 1 for the vehicle ``[r_x, r_y, v_x, v_y]``.
+
+    Parameters
+    ----------
+    model : LinearGaussian or NonlinearGaussian
+        A model with ``state_names`` and ``position_names``.
+    xs : array_like, shape (..., n)
+        States, or differences of states (estimation errors).
 
     Returns
     -------

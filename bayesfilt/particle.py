@@ -393,6 +393,17 @@ def transition_proposal(model) -> Proposal:
     proposal's time (that of the new state t) to the model's (that of the
     state the step starts from, t - 1). Needs a transition density
     (:math:`G Q G^T` invertible).
+
+    Parameters
+    ----------
+    model : LinearGaussian or NonlinearGaussian
+        The model whose transition is the proposal.
+
+    Returns
+    -------
+    Proposal
+        ``sample(rng, x_prev, y, t)`` draws from :math:`p(x_t \mid x_{t-1})` and
+        ``logpdf(x, x_prev, y, t)`` evaluates it; both ignore ``y``.
     """
     def sample(rng, x_prev, y, t):
         return model.sample_transition(rng, x_prev, t=t - 1)

@@ -291,6 +291,21 @@ def plot_error(ax, t, error, std, n_std: float = 2.0, label: str = "error", unit
     """Estimation error over time with the filter's own +-n_std band.
 
     A consistent filter keeps about 95 % of the errors inside +-2 sigma.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    t : array_like, shape (T,)
+        Time steps.
+    error : array_like, shape (T,)
+        Estimate minus truth of one state component.
+    std : array_like, shape (T,)
+        The filter's standard deviation of that component (square root of a diagonal entry
+        of its covariance), non-negative.
+    n_std : float
+        Half-width of the band in standard deviations (default 2).
+    label, unit : str
+        Legend label and unit of the error, for the y-axis label.
     """
     t = as_vector("t", t)
     error = as_vector("error", error, t.shape[0])
@@ -349,6 +364,19 @@ def plot_belief_step(ax, grid, prior, likelihood, posterior, truth=None, unit: s
 
     The likelihood is a function of the state, not a distribution; it is
     scaled to the posterior's maximum so that its shape can be compared.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    grid : array_like, shape (n,)
+        Cell centres, strictly increasing.
+    prior, likelihood, posterior : array_like, shape (n,)
+        Probabilities of the cells before and after the measurement, and the likelihood of
+        the measurement at each cell.
+    truth : float, optional
+        The true state, drawn as a vertical line.
+    unit : str
+        Unit of the state, for the x-axis label.
     """
     grid = as_vector("grid", grid)
     n = grid.shape[0]
