@@ -274,10 +274,9 @@ def exercise(check: Callable) -> Callable:
 
 
 def register(namespace: dict) -> None:
-    """Turn every ``exercise_N`` of a chapter module into an :func:`exercise` (call it last)."""
-    for key, value in list(namespace.items()):
-        if re.fullmatch(r"exercise_\d+", key) and callable(value):
-            namespace[key] = exercise(value)
+    """Make each ``exercise_N`` of a chapter module an :func:`exercise`, listed in ``__all__``."""
+    names = [k for k, v in namespace.items() if re.fullmatch(r"exercise_\d+", k) and callable(v)]
+    namespace.update({k: exercise(namespace[k]) for k in names}, __all__=names)
 
 
 # --- the comparisons -----------------------------------------------------------------------------
@@ -312,6 +311,39 @@ def _combine(parts: Sequence[tuple[str, Feedback]]) -> Feedback:
     return Feedback(INCORRECT if INCORRECT in statuses else NOT_ATTEMPTED, " ".join(
         f"{name}: correct." if fb.correct else fb.message if fb.status == INCORRECT
         else f"{name}: not attempted yet ({blank(name, fb)})." for name, fb in parts))
+
+
+def _named(answer, expected, what: str, mistakes, note: str = "", rtol=1e-6, atol=1e-9) -> Feedback:
+    """compare_array; a named mistake (an array, or a predicate on the answer) gets its message."""
+    fb = compare_array(answer, expected, what, rtol=rtol, atol=atol)
+    if fb.status != INCORRECT:
+        return Feedback(CORRECT, f"{fb.message} {note}".strip()) if fb.correct else fb
+    a = np.asarray(answer) if isinstance(answer, (list, tuple, np.ndarray, numbers.Real)) else None
+    a = a.astype(float) if a is not None and a.dtype.kind in "iuf" else np.array(np.nan)
+    for wrong, message in mistakes if np.all(np.isfinite(a)) else ():
+        try:
+            hit = wrong(a) if callable(wrong) else _matches(a, wrong, rtol, atol)
+        except Exception:  # noqa: BLE001 - a mistake that does not apply to this answer
+            hit = False
+        if hit:
+            return _wrong(message(a) if callable(message) else message)
+    return fb
+
+
+def _hinted(fun, hint):
+    """fun, a failure re-raised with hint(exc, args) added (even one that cannot print itself)."""
+    def call(*args):
+        try:
+            return fun(*args)
+        except NotImplementedError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - compare_function reports it, with the hint
+            try:
+                text = f"{exc}{hint(exc, args)}"
+            except Exception:  # noqa: BLE001
+                text = ""
+            raise type(type(exc).__name__, (Exception,), {})(text) from None
+    return call if callable(fun) else fun
 
 
 def _as_numbers(answer, what: str):

@@ -22,9 +22,7 @@ import numpy as np
 
 from .. import bayes
 from . import (CORRECT, INCORRECT, Feedback, compare_array, compare_function, compare_number,
-               _common_factor, _matches, _not_attempted, _wrong, register as _register)
-
-__all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
+               _common_factor, _hinted, _named, _not_attempted, _wrong, register as _register)
 
 # the statements' numbers: the ring corridor (50 cells of 1 m, its doors, the slip of a one-cell move)
 N_CELLS, DOORS, SLIP = 50, (2, 5, 6, 14, 22, 23, 31, 37, 38, 45), (0.05, 0.85, 0.10)
@@ -34,40 +32,6 @@ SENSE_OPEN, SENSE_CLOSED = np.array([0.6, 0.2]), np.array([0.4, 0.8])
 POSITION_STD, POSITION_SEED, MODEL_STDS = 3.0, 5, (3.0, 1.0)       # exercise 3
 SEEDS_4, NEAR, THRESHOLD, STEPS_5 = tuple(range(20)), 2, 0.5, 20   # exercises 4 and 5
 ATOL_HAND, ATOL_LOG_EVIDENCE = 1e-3, 6e-3
-
-
-def _named(answer, expected, what: str, mistakes, note: str = "", rtol=1e-6, atol=1e-9) -> Feedback:
-    """compare_array, but a named mistake (an array, or a predicate on a finite float answer) gets its
-    message (a string, or a function of the answer); ``note`` is added when correct."""
-    fb = compare_array(answer, expected, what, rtol=rtol, atol=atol)
-    if fb.status != INCORRECT:
-        return Feedback(CORRECT, f"{fb.message} {note}".strip()) if fb.correct else fb
-    a = np.asarray(answer) if isinstance(answer, (list, tuple, np.ndarray, numbers.Real)) else None
-    a = a.astype(float) if a is not None and a.dtype.kind in "iuf" else np.array(np.nan)
-    for wrong, message in mistakes if np.all(np.isfinite(a)) else ():
-        try:
-            hit = wrong(a) if callable(wrong) else _matches(a, wrong, rtol, atol)
-        except Exception:  # noqa: BLE001 - a mistake that does not apply to this answer
-            hit = False
-        if hit:
-            return _wrong(message(a) if callable(message) else message)
-    return fb
-
-
-def _hinted(fun, hint):
-    """fun, a failure re-raised with hint(exc, args) added (even one that cannot print itself)."""
-    def call(*args):
-        try:
-            return fun(*args)
-        except NotImplementedError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - compare_function reports it, with the hint
-            try:
-                text = f"{exc}{hint(exc, args)}"
-            except Exception:  # noqa: BLE001
-                text = ""
-            raise type(type(exc).__name__, (Exception,), {})(text) from None
-    return call if callable(fun) else fun
 
 
 def _proportional(a, v) -> bool:

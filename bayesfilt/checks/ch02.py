@@ -20,12 +20,10 @@ import numbers
 
 import numpy as np
 
-from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _combine, _frozen, _not_attempted,
-               _wrong, compare_array, compare_choice, compare_function, register as _register)
-from .ch01 import _hinted, _named
+from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _combine, _frozen, _hinted, _named,
+               _not_attempted, _wrong, compare_array, compare_choice, compare_function,
+               register as _register)
 from .. import bayes, gaussian, kalman, models
-
-__all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
 
 # the statements' numbers: a predicted covariance (m^2, m^2/step, (m/step)^2), the position sensor
 # and its noise variance (m^2); the gain of exercise 1, the better sensor of exercise 3, the noise

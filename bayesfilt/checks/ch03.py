@@ -19,12 +19,9 @@ import functools
 
 import numpy as np
 
-from . import (INCORRECT, Feedback, _as_numbers, _combine, _each_case, _frozen, _wrong, compare_choice,
-               compare_number, register as _register)
-from .ch01 import _hinted, _named
+from . import (INCORRECT, Feedback, _as_numbers, _combine, _each_case, _frozen, _hinted, _named,
+               _wrong, compare_choice, compare_number, register as _register)
 from .. import gaussian, kalman, models
-
-__all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
 
 # the statements' numbers (ex 4 tries length 10 first: at length 1, zeros for NaN and one step early agree; ex 5:
 # Q ×10 and R ×0.1 share Q / R, so the gain and z_t); 5 spreads of a lag-1 value between records of 1000 steps

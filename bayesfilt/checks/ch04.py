@@ -15,11 +15,9 @@ import functools
 import numpy as np
 
 from .. import ekf, gaussian, kalman, models
-from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _frozen, _matches, _not_attempted, _wrong,
-               compare_array, compare_function, compare_number, register as _register)
-from .ch01 import _hinted
-
-__all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
+from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _frozen, _hinted, _matches,
+               _not_attempted, _wrong, compare_array, compare_function, compare_number,
+               register as _register)
 
 # the statements' numbers; each function's check adds two random cases, drawn with its seed
 H_SEED, CONVERT_SEED, TURN_SEED, INNOVATION_SEED, ON_THE_RY_AXIS, EXACTLY_PI = 4041, 4042, 4044, 4045, 4, 5

@@ -21,8 +21,6 @@ from .. import models, particle
 from . import (CORRECT, INCORRECT, Feedback, _as_numbers, _not_attempted, _wrong, compare_function,
                compare_number, register as _register)
 
-__all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4", "exercise_5"]
-
 LOG_W = (-1000.0, -1001.0, -1002.0, -np.inf)         # exercise 1's statement; exercise 2 (c)
 ESS_GIVEN = ((0.4, 0.3, 0.2, 0.1), (1.0, 1.0, 2.0))   # exercise 2 (a), (b)
 A, C, Q, R, S = 0.9, 1.0, 1.0, 0.1, 1.1              # lg of section 4 (exercises 3-5); S = C Q C^T + R

@@ -23,11 +23,8 @@ import numpy as np
 from scipy import stats
 
 from .. import gaussian, kalman, models, particle, resampling
-from . import (CORRECT, Feedback, _as_numbers, _each_case, _matches, _not_attempted, _wrong,
-               register as _register)
-from .ch01 import _hinted
-
-__all__ = ["exercise_1", "exercise_2", "exercise_3", "exercise_4"]
+from . import (CORRECT, Feedback, _as_numbers, _each_case, _hinted, _matches, _not_attempted,
+               _wrong, register as _register)
 
 SIX_WEIGHTS, U_STATEMENT, TOL_INDEX = (0.05, 0.32, 0.08, 0.22, 0.13, 0.20), 0.5, 1e-12  # round-off at an Ω^(i)
 WEIGHTS_2, M_2, PARTICLE_2, ATOL_HAND = (0.42, 0.28, 0.18, 0.12), 10, 1, 2e-3         # 3 decimals
