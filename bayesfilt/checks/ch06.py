@@ -60,6 +60,8 @@ def _number(value, what: str):
 
 def _pair(answer, what: str, first: str, second: str):
     """``answer`` as a pair (first, second), or a Feedback saying what it is instead."""
+    if answer is None or answer is Ellipsis:
+        return None, _not_attempted(what)
     if isinstance(answer, (tuple, list)) and len(answer) == 2:
         return tuple(answer), None
     got = (f"a numpy array of shape {answer.shape}" if isinstance(answer, np.ndarray) else
@@ -68,7 +70,6 @@ def _pair(answer, what: str, first: str, second: str):
 
 
 # --- exercise 1: systematic resampling by hand ------------------------------------------------------------
-
 def _cases_1() -> list[tuple[np.ndarray, float]]:
     rng, six = np.random.default_rng(606), np.array(SIX_WEIGHTS)
     w50, w1000 = rng.exponential(size=50), rng.exponential(size=1000) ** 3
@@ -178,7 +179,6 @@ def exercise_1(my_systematic) -> Feedback:
 
 
 # --- exercise 2: the offspring count of particle 1 --------------------------------------------------------
-
 def _law_2(W: np.ndarray, M: int, i: int) -> np.ndarray:
     """[E N_i, Var N_i multinomial, systematic (exact: N_i is a step function of u, with steps at the fractional
     parts of M C_k), residual (floor(M W^(i)) + Binomial(M̃, φ^(i) / M̃))]."""
@@ -264,7 +264,6 @@ def exercise_2(answer) -> Feedback:
 
 
 # --- exercise 3: the ESS threshold ------------------------------------------------------------------------
-
 @functools.lru_cache(maxsize=1)
 def _experiment_3() -> tuple[np.ndarray, float, float]:
     """(mean resamplings per record per threshold, the threshold of largest RMSE, of smallest)."""
@@ -283,8 +282,6 @@ def _experiment_3() -> tuple[np.ndarray, float, float]:
 def exercise_3(answer) -> Feedback:
     """``answer_3 = (resamplings, theta_worst)``; the counts within 20 % (at least 1), for any seed."""
     what, per = "answer_3", "give the number of resamplings per record (res.resampled.sum())."
-    if answer is None or answer is Ellipsis:
-        return _not_attempted(what)
     pair, bad = _pair(answer, what, "resamplings", "theta_worst")
     if bad is not None and isinstance(answer, (np.ndarray, list, tuple)) and np.size(answer) == 3:
         return _wrong(f"{what} must be a pair (resamplings, theta_worst): the array of three mean counts, then "
@@ -334,7 +331,6 @@ def exercise_3(answer) -> Feedback:
 
 
 # --- exercise 4: tuning roughening ------------------------------------------------------------------------
-
 @functools.lru_cache(maxsize=2)
 def _experiment_4(n_particles: int = N_4) -> tuple[float, str]:
     """(the smallest K of K_VALUES_4 that loses at most MAX_LOST_4 runs, its NEES verdict)."""
@@ -364,8 +360,6 @@ def exercise_4(answer, n_particles: int = N_BEFORE_4) -> Feedback:
     if n_particles not in (N_4, N_BEFORE_4):
         return _wrong(f"the check knows the experiment with N_4 = {N_4} particles (the answer cell gives it); "
                       f"got n_particles = {n_particles!r}.")
-    if answer is None or answer is Ellipsis:
-        return _not_attempted(what)
     pair, bad = _pair(answer, what, "K_min", "verdict")
     if bad is not None:
         return bad
