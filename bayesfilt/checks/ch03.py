@@ -164,13 +164,16 @@ def exercise_3(normalised_squared) -> Feedback:
              f"step, shape ({T},) (averaging them is the next step of the test)."),
             (lambda a: a.ndim >= 2 and a.shape[:2] == (T, T), lambda a: f"{w}: your array of shape {a.shape} pairs "
              f"every step with every other (a product over the time axis); pair d_t with its own P_t: shape ({T},).")])
-    fun = _hinted(None if normalised_squared is Ellipsis else normalised_squared, lambda exc, args: (
-        " Hint: np.linalg.inv and np.linalg.solve take a stack (T, n, n) directly; for the vectors use d[..., None]."
-        if isinstance(exc, np.linalg.LinAlgError) else f" Hint: diffs is (T, n) and covs (T, n, n); compute {_QUAD} "
-        f"for each t (a loop, or np.einsum / np.linalg.solve on the stack)." if any(
-            w in str(exc) for w in ("matmul", "align", "broadcast", "dimension")) else ""))
+    def hint(exc, args) -> str:
+        if isinstance(exc, np.linalg.LinAlgError):
+            return (" Hint: np.linalg.inv and np.linalg.solve take a stack (T, n, n) directly; "
+                    "for the vectors use d[..., None].")
+        return (f" Hint: diffs is (T, n) and covs (T, n, n); compute {_QUAD} for each t (a loop, "
+                f"or np.einsum / np.linalg.solve on the stack)." if any(
+                    w in str(exc) for w in ("matmul", "align", "broadcast", "dimension")) else "")
+    fun = None if normalised_squared is Ellipsis else normalised_squared
     labels, d, P = zip(*_nees_cases())
-    return _each_case(fun, "normalised_squared", list(zip(d, P)), labels, judge)
+    return _each_case(_hinted(fun, hint), "normalised_squared", list(zip(d, P)), labels, judge)
 
 
 @functools.lru_cache(maxsize=None)
@@ -212,14 +215,15 @@ def _gap_judge(fun, out, where, args) -> Feedback:
 
 def exercise_4(end_of_gap_variance, slope) -> Feedback:
     """end_of_gap_variance(length) against bf.kalman.kalman_filter on GAP_LENGTHS, and slope_4."""
-    (lo, hi), fun = SLOPE_LENGTHS, end_of_gap_variance
+    (lo, hi), fun = SLOPE_LENGTHS, None if end_of_gap_variance is Ellipsis else end_of_gap_variance
     v_lo, v_hi, d_log_l = _gap_var(lo), _gap_var(hi), np.log(hi / lo)
     expected, mixed = np.log(v_hi / v_lo) / d_log_l, "you mixed two logarithms ({}); use the same one for both."
     return _combine([
-        ("end_of_gap_variance", _each_case(_hinted(None if fun is Ellipsis else fun, lambda exc, args: (
-            " Hint: the run has T = 100 steps; the gap's last step is t = 39 + length (t = 99 for length = 60)." if
-            isinstance(exc, IndexError) else " Hint: delete whole measurements, both components NaN: ys_cut[40:40 + "
-            "length] = np.nan." if "partly NaN" in str(exc) else "")), "end_of_gap_variance", [(n,) for n in GAP_LENGTHS],
+        ("end_of_gap_variance", _each_case(_hinted(fun, lambda exc, args: (
+            " Hint: the run has T = 100 steps; the gap's last step is t = 39 + length (t = 99 for "
+            "length = 60)." if isinstance(exc, IndexError) else " Hint: delete whole measurements, "
+            "both components NaN: ys_cut[40:40 + length] = np.nan." if "partly NaN" in str(exc)
+            else "")), "end_of_gap_variance", [(n,) for n in GAP_LENGTHS],
             [f"length = {n}" for n in GAP_LENGTHS], functools.partial(_gap_judge, fun))),
         ("slope_4", _number(slope, expected, "slope_4", atol=ATOL_SLOPE, mistakes=[
             (expected / 2, "this is the standard deviation's slope; the variance's is twice it (log of a square)."),

@@ -167,9 +167,10 @@ def exercise_1(my_systematic) -> Feedback:
 
     labels = [(f"w = {np.array2string(w, precision=3, separator=', ')}" if len(w) <= 6 else
                f"{len(w)} weights summing to {np.sum(w):.4g}") + f", u = {u:.4g}" for w, u in cases]
-    fb = _each_case(_hinted(None if my_systematic is Ellipsis else my_systematic, lambda exc, args: (
-        " (an index past the end: is the last cumulative weight exactly 1? Divide the cumulative sums by the last "
-        "one.)" if isinstance(exc, IndexError) else "")), what, cases, labels, judge)
+    fun = _hinted(None if my_systematic is Ellipsis else my_systematic, lambda exc, args: (
+        " (an index past the end: is the last cumulative weight exactly 1? Divide the cumulative "
+        "sums by the last one.)" if isinstance(exc, IndexError) else ""))
+    fb = _each_case(fun, what, cases, labels, judge)
     if fb.correct and any(floats):
         return _wrong(f"{what} returns the right ancestors as floating-point numbers; indices must be integers "
                       f"(x[a] fails with a float array): np.searchsorted returns integers, or use .astype(int).")
