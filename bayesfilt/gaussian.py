@@ -334,7 +334,7 @@ def sample(rng: np.random.Generator, mean, cov, size: int) -> np.ndarray:
     return mean + z @ _factor(cov).T
 
 
-def squared_mahalanobis(diffs, covs) -> np.ndarray:
+def squared_mahalanobis(diffs, covs, singular: str = "raise") -> np.ndarray:
     r"""Squared Mahalanobis distances :math:`d^T P^{-1} d`, broadcast over leading axes.
 
     With estimation errors :math:`e_t = x_t - \hat x_{t|t}` and the filter's
@@ -351,6 +351,11 @@ def squared_mahalanobis(diffs, covs) -> np.ndarray:
         Positive definite matrices; the leading axes broadcast against those
         of ``diffs`` (one (n, n) matrix for all, or (T, n, n) shared by M
         runs, ...).
+    singular : {"raise", "inf"}
+        What a covariance that is not positive definite (its Cholesky
+        factorisation fails) gives: a ValueError (the default), or ``inf`` for
+        its distances, e.g. the NEES of a particle cloud collapsed onto one
+        point (chapter 06).
 
     Returns
     -------
@@ -361,11 +366,14 @@ def squared_mahalanobis(diffs, covs) -> np.ndarray:
     ------
     ValueError
         If the trailing shapes do not match, leading axes do not broadcast,
-        an entry is not finite or a covariance is not positive definite. A
+        an entry is not finite, ``singular`` is not one of its two values, or
+        (with ``singular="raise"``) a covariance is not positive definite. A
         NaN gets a message saying to select the observed rows of a filter
         result: ``res.innovations[res.observed]``,
         ``res.innovation_covs[res.observed]`` (the missing rows are NaN).
     """
+    if singular not in ("raise", "inf"):
+        raise ValueError(f'singular must be "raise" or "inf", got {singular!r}')
     d = _finite_or_missing("squared_mahalanobis", "diffs", diffs)
     P = _finite_or_missing("squared_mahalanobis", "covs", covs)
     if d.ndim < 1:
@@ -388,14 +396,28 @@ def squared_mahalanobis(diffs, covs) -> np.ndarray:
         raise ValueError(f"covs must be symmetric, got max |P - P^T| / max |P| = {worst:.3g}")
     try:
         L = np.linalg.cholesky(P)
+        bad = None
     except np.linalg.LinAlgError:
-        raise ValueError("covs must be positive definite (every matrix), "
-                         "Cholesky factorisation failed") from None
+        if singular == "raise":
+            raise ValueError("covs must be positive definite (every matrix), "
+                             "Cholesky factorisation failed") from None
+        # factor the matrices one by one; a failed one gets L = I here and inf below
+        flat = P.reshape(-1, n, n)
+        L, bad = np.empty_like(flat), np.zeros(flat.shape[0], dtype=bool)
+        for k, Pk in enumerate(flat):
+            try:
+                L[k] = np.linalg.cholesky(Pk)
+            except np.linalg.LinAlgError:
+                L[k], bad[k] = np.eye(n), True
+        L, bad = L.reshape(P.shape), bad.reshape(P.shape[:-2])
     L = np.broadcast_to(L, lead + (n, n))
     d = np.broadcast_to(d, lead + (n,))
     # z = L^{-1} d, then d^T P^{-1} d = z^T z (one batched solve, no inverse)
     z = np.linalg.solve(L, d[..., None])[..., 0]
-    return np.sum(z * z, axis=-1)
+    out = np.sum(z * z, axis=-1)
+    if bad is not None:
+        out = np.where(np.broadcast_to(bad, lead), np.inf, out)[()]  # [()]: a scalar stays one
+    return out
 
 
 def chi2_interval(dof: int, n_runs: int = 1, confidence: float = 0.95) -> Interval:

@@ -441,3 +441,30 @@ def test_apply_to_rows_is_the_matrix_product(shape):
     F, z = rng.standard_normal(shape), rng.standard_normal((1000, shape[1]))
     np.testing.assert_array_equal(_apply_to_rows(F, z), z @ F.T)
     np.testing.assert_array_equal(_apply_to_rows(F, z[:1]), np.atleast_2d(F @ z[0]))
+
+
+def test_squared_mahalanobis_singular_inf_matches_a_per_matrix_inverse():
+    # independent reference: d^T P^{-1} d with np.linalg.inv, matrix by matrix; inf where P
+    # is singular (a particle cloud collapsed onto a point has P = 0)
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((6, 3, 3))
+    P = A @ A.transpose(0, 2, 1) + 0.1 * np.eye(3)
+    P[2] = 0.0
+    P[4] = np.outer([1.0, 2.0, 0.0], [1.0, 2.0, 0.0])     # rank one
+    d = rng.standard_normal((6, 3))
+    got = bf.gaussian.squared_mahalanobis(d, P, singular="inf")
+    for k in range(6):
+        if k in (2, 4):
+            assert got[k] == np.inf, (k, got[k])
+        else:
+            np.testing.assert_allclose(got[k], d[k] @ np.linalg.inv(P[k]) @ d[k], rtol=1e-10)
+    # one pair: a scalar, as without singular
+    assert np.ndim(bf.gaussian.squared_mahalanobis(d[2], P[2], singular="inf")) == 0
+    # the default still refuses a singular covariance, and a third value is refused
+    with pytest.raises(ValueError, match="positive definite"):
+        bf.gaussian.squared_mahalanobis(d, P)
+    with pytest.raises(ValueError, match='singular must be "raise" or "inf"'):
+        bf.gaussian.squared_mahalanobis(d, P, singular="nan")
+    # shape errors are not turned into inf
+    with pytest.raises(ValueError, match="covs must have shape"):
+        bf.gaussian.squared_mahalanobis(d, P[:, :2, :2], singular="inf")
