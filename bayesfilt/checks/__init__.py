@@ -30,6 +30,8 @@ check with a "Not yet" (:func:`guard`), and a check never raises, except under
 nbgrader, where a check that is not correct fails its cell.
 """
 
+from __future__ import annotations
+
 import contextlib
 import copy
 import functools

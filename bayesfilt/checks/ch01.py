@@ -14,6 +14,8 @@ Diagnoses, exercise by exercise::
       growth, a standard deviation, a second moment, the spread about the commanded move.
 """
 
+from __future__ import annotations
+
 import functools
 import math
 import numbers

@@ -15,6 +15,8 @@ Diagnoses, exercise by exercise::
       cross term in Sigma_yy, the sign of D, D^T for D; failures hinted (shapes).
 """
 
+from __future__ import annotations
+
 import functools
 import numbers
 

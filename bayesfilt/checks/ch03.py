@@ -15,6 +15,8 @@ Diagnoses, exercise by exercise::
       (the correct one, Q ×0.1, a mix-up), another record.
 """
 
+from __future__ import annotations
+
 import functools
 
 import numpy as np

@@ -9,6 +9,8 @@ Diagnoses, exercise by exercise::
     5 wrapped_innovation: the sign, no wrap, one side only, [0, 2 pi), the range wrapped, the bearing alone; -pi at pi.
 """
 
+from __future__ import annotations
+
 import dataclasses
 import functools
 

@@ -10,6 +10,8 @@ Diagnoses, exercise by exercise::
     5 answer_5, the models whose optimal proposal is not the transition: the form, none, each side's hint.
 """
 
+from __future__ import annotations
+
 import functools
 import math
 import numbers

@@ -13,6 +13,8 @@ Diagnoses, exercise by exercise::
         runs) and the verdict: the median NEES against the median of chi2_4.
 """
 
+from __future__ import annotations
+
 import contextlib
 import functools
 import math
