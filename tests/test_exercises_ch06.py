@@ -406,7 +406,7 @@ def right_4():
     vehicle = bf.models.range_bearing()
     sims = bf.models.simulate_many(vehicle, 20, 60, np.random.default_rng(401),
                                    x0=bf.models.RANGE_BEARING_TRUE_START)
-    results = {K: _roughened_lost_and_nees(vehicle, sims, K, seed=402) for K in (0.05, 0.1, 0.5, 1.0)}
+    results = {K: _roughened_lost_and_nees(vehicle, sims, K, seed=402) for K in (0.1, 0.2, 2.0)}
     K_min = min(K for K, (lost, _) in results.items() if lost <= 5)
     return K_min, "overconfident" if results[K_min][1] > 4 else "conservative", results
 
@@ -417,8 +417,8 @@ def _exercise_4_500(*answers):
 
 def test_ex4_the_right_answer_is_accepted_with_other_seeds(right_4):
     K_min, verdict, results = right_4
-    assert (K_min, verdict) == (1.0, "conservative"), results
-    assert results[0.05][0] > 5 and results[0.1][0] > 5 and results[0.5][0] > 5, results
+    assert (K_min, verdict) == (2.0, "conservative"), results
+    assert results[0.1][0] > 5 and results[0.2][0] > 5, results
     fb = _exercise_4_500((K_min, verdict))
     assert fb.status == CORRECT, fb
     assert _exercise_4_500([np.float64(K_min), " Conservative "]).correct
@@ -428,20 +428,21 @@ def test_ex4_the_right_answer_is_accepted_with_other_seeds(right_4):
 def test_ex4_a_k_too_small_or_larger_than_needed():
     _assert_wrong(_exercise_4_500((0.1, "conservative")), "too small to separate the copies",
                   "more than 5 of the 20 runs")
-    _assert_wrong(_exercise_4_500((0.05, "overconfident")), "too small")
-    _assert_wrong(_exercise_4_500((0.5, "conservative")), "too small to separate the copies")
+    _assert_wrong(_exercise_4_500((0.2, "overconfident")), "too small")
+    # 0.5 and 1.0 (the statement's values before issue 14) are no longer offered
+    _assert_wrong(_exercise_4_500((1.0, "conservative")), "one of the roughening constants")
 
 
 def test_ex4_the_verdict_read_the_wrong_way_round():
-    _assert_wrong(_exercise_4_500((1.0, "overconfident")), "answer_4[1]", "median NEES", "mean d = 4")
-    _assert_wrong(_exercise_4_500((1.0, "consistent")), "must be one of", "'consistent'")
-    _assert_wrong(_exercise_4_500((1.0, 1.4)), "must be one of the words")
+    _assert_wrong(_exercise_4_500((2.0, "overconfident")), "answer_4[1]", "median NEES", "mean d = 4")
+    _assert_wrong(_exercise_4_500((2.0, "consistent")), "must be one of", "'consistent'")
+    _assert_wrong(_exercise_4_500((2.0, 1.4)), "must be one of the words")
 
 
 def test_ex4_not_a_k_and_the_pair_swapped():
     _assert_wrong(_exercise_4_500((0, "conservative")), "one of the roughening constants", "lost runs")
-    _assert_wrong(_exercise_4_500((0.2, "conservative")), "one of the roughening constants")
-    _assert_wrong(_exercise_4_500(("conservative", 1.0)), "wrong order")
+    _assert_wrong(_exercise_4_500((0.3, "conservative")), "one of the roughening constants")
+    _assert_wrong(_exercise_4_500(("conservative", 2.0)), "wrong order")
     _assert_wrong(_exercise_4_500(0.5), "pair (K_min, verdict)")
 
 
@@ -463,7 +464,7 @@ def test_the_notebook_states_the_numbers_of_the_checks():
     for fragment in ["(0.05, 0.32, 0.08, 0.22, 0.13, 0.20)", "$u = 0.5$", "$p_j = (j + u)/N$",
                      "$W = (0.42, 0.28, 0.18, 0.12)$", "$M = 10$", "particle 1",
                      "$\\theta = 0.1$, $0.5$ and $0.9$", "$N = 500$", "`np.random.default_rng(16)`",
-                     "$(0.05, 0.1, 0.5, 1.0)$", "`np.random.default_rng(28)`", "above 5 m",
+                     "$(0.1, 0.2, 2.0)$", "`np.random.default_rng(28)`", "above 5 m",
                      "at most 5 of the 20 runs", "$t \\ge 30$", "above 4"]:
         assert fragment in exercises, fragment
     for k in range(1, 5):
@@ -472,8 +473,8 @@ def test_the_notebook_states_the_numbers_of_the_checks():
     assert ch06.SIX_WEIGHTS == tuple(SIX) and ch06.U_STATEMENT == 0.5
     assert ch06.WEIGHTS_2 == tuple(W2) and ch06.M_2 == M2 and ch06.PARTICLE_2 == 1
     assert ch06.THRESHOLDS_3 == (0.1, 0.5, 0.9) and ch06.N_3 == 500 and ch06.SEED_FILTERS_3 == 16
-    assert ch06.K_VALUES_4 == (0.05, 0.1, 0.5, 1.0) and ch06.SEED_FILTERS_4 == 28
+    assert ch06.K_VALUES_4 == (0.1, 0.2, 2.0) and ch06.SEED_FILTERS_4 == 28
     assert ch06.N_4 == 500
-    wrong_n = ch06.exercise_4((1.0, "conservative"), 300)
+    wrong_n = ch06.exercise_4((2.0, "conservative"), 300)
     assert wrong_n.status == INCORRECT and "N_4 = 500" in wrong_n.message
     assert (ch06.MAX_LOST_4, ch06.LOST_METRES_4, ch06.T_FROM_4) == (5, 5.0, 30)
