@@ -15,7 +15,9 @@ generate the feedback and export the grades. The class:
 
 Chapter 02 is used because it is the cheapest chapter to execute; the checks'
 time limit is set to 1 s (``BAYESFILT_CHECK_TIME_LIMIT``) so that the endless
-loop costs one second. The test needs the chapter notebooks as nbgrader source
+loop costs one second. (Carol's answer cell types her values in: had it called the looping
+function, nbgrader's own 30 s cell timeout would have stopped it, a path of nbgrader's that
+INSTRUCTORS.md describes and this test does not run; it cost 30 of the test's 87 s.) The test needs the chapter notebooks as nbgrader source
 notebooks (issue 13: solution and grade metadata on the exercise cells).
 """
 
@@ -46,7 +48,9 @@ CAROL = {
     1: ["excess_1 = K_1 - K_star"],                          # the answer cell raises NameError
     2: ["return P @ C.T @ np.linalg.inv(C @ P @ C.T)"],      # a typical mistake: R left out of S
     3: [None],                                               # right
-    4: ["while True:\n    pass", None],                     # a function that never returns
+    # a function that never returns; its values typed in, so that only the check calls it (an
+    # answer cell that loops is stopped by nbgrader's own 30 s cell timeout: not tested here)
+    4: ["while True:\n    pass", "agree_4 = 3\nmeaning_4 = \"best linear estimate\""],
     5: ["return P @ C.T * (1 / 0)"],                         # a function that raises
 }
 EXPECTED = {
