@@ -26,8 +26,8 @@ check per exercise, built on the comparisons here (:func:`compare_array`,
 :func:`compare_number`, :func:`compare_function`, :func:`compare_choice`) and run
 through one engine (:func:`exercise`): a student's function runs under a time limit
 (:data:`TIME_LIMIT`), an argument or a chapter array it changes in place ends the
-check with a "Not yet" (:func:`guard`), and a check never raises, except under
-nbgrader, where a check that is not correct fails its cell.
+check with a "Not yet", and a check never raises, except under nbgrader, where a
+check that is not correct fails its cell.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ from typing import Callable, NamedTuple, Sequence
 import numpy as np
 
 __all__ = ["Feedback", "compare_array", "compare_number", "compare_function", "compare_choice",
-           "exercise", "time_limit", "NOT_ATTEMPTED", "CORRECT", "INCORRECT", "TIME_LIMIT"]
+           "exercise", "NOT_ATTEMPTED", "CORRECT", "INCORRECT", "TIME_LIMIT"]
 
 NOT_ATTEMPTED = "not attempted yet"
 CORRECT = "correct"
@@ -104,19 +104,9 @@ _timer_active = threading.local()
 
 
 @contextlib.contextmanager
-def time_limit(seconds: float | None, message: str):
-    """Stop the block after ``seconds``: inside a check, a "Not yet" saying ``message``.
-
-    ``SIGALRM`` by ``signal.setitimer`` (POSIX, main thread; elsewhere no limit), the handler
-    and timer restored on the way out; a long C call (one huge numpy operation) ends first.
-
-    Parameters
-    ----------
-    seconds : float or None
-        The limit; None or 0 for none.
-    message : str
-        What the check says when the block is stopped.
-    """
+def _time_limit(seconds: float | None, message: str):
+    """Stop the block after ``seconds`` (None or 0: never) with _Stop(message): SIGALRM by
+    setitimer (POSIX, main thread; elsewhere no limit); a long C call ends first."""
     if (seconds is None or seconds <= 0 or not hasattr(signal, "setitimer")
             or threading.current_thread() is not threading.main_thread()
             or getattr(_timer_active, "on", False)):
@@ -180,26 +170,9 @@ def _arg_names(fun, n: int) -> list[str]:
     return (names + [f"argument {k + 1}" for k in range(len(names), n)])[:n]
 
 
-def guard(fun, name: str | None = None, limit: float | None = None):
-    """``fun`` wrapped for a check: a time limit per call, in-place changes detected.
-
-    A call that runs too long, or changes in place an argument or a chapter array it refers to
-    (``ys[40:50] = np.nan`` on the chapter's ``ys``, put back as it was), ends the check with a
-    "Not yet" naming the input.
-
-    Parameters
-    ----------
-    fun : callable
-        The student's function.
-    name : str, optional
-        Its name in the messages (default: its ``__name__``, "your function" for a lambda).
-    limit : float, optional
-        Seconds per call (default :data:`TIME_LIMIT`).
-
-    Returns
-    -------
-    callable
-    """
+def _guard(fun, name: str | None = None, limit: float | None = None):
+    """``fun`` for a check: a call over ``limit`` s (default TIME_LIMIT), or one that changes an
+    argument or a chapter array in place (put back), ends the check with a "Not yet"."""
     name = name or getattr(fun, "__name__", "your function")
     name = "your function" if name == "<lambda>" else name
     watched = _watched_globals(fun)
@@ -212,7 +185,7 @@ def guard(fun, name: str | None = None, limit: float | None = None):
             before = ()
         chapter = {k: copy.deepcopy(v) for k, v in watched.items()}
         seconds = TIME_LIMIT if limit is None else limit
-        with time_limit(seconds, f"your function {name} did not return within {seconds:g} s: "
+        with _time_limit(seconds, f"your function {name} did not return within {seconds:g} s: "
                                  f"an endless loop? (test input: {_describe_args(args)})"):
             out = fun(*args, **kwargs)
         for arg, now, then in zip(_arg_names(fun, len(args)), args, before):
@@ -238,7 +211,7 @@ def guard(fun, name: str | None = None, limit: float | None = None):
 def exercise(check: Callable) -> Callable:
     """Make ``check`` an exercise: never raises, student functions guarded, graded by nbgrader.
 
-    Every callable answer is wrapped by :func:`guard`; any failure inside the check becomes a
+    Every callable answer is guarded (time limit, in-place changes); any failure inside it is a
     "Not yet". When nbgrader autogrades or validates (``NBGRADER_EXECUTION`` set), an answer
     that is not correct raises ``AssertionError`` with its message: the cell loses its points.
 
@@ -257,7 +230,7 @@ def exercise(check: Callable) -> Callable:
 
     @functools.wraps(check)
     def run(*answers, **kwargs):
-        guarded = [guard(a) if callable(a) and not isinstance(a, type) else a for a in answers]
+        guarded = [_guard(a) if callable(a) and not isinstance(a, type) else a for a in answers]
         try:
             with np.errstate(all="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore")

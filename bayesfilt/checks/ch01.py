@@ -1,17 +1,10 @@
-"""Checks of chapter 01's exercises (the Bayes recursion on a grid); references from bf.bayes.
+"""Checks of chapter 01's exercises (the Bayes recursion on a grid; references from bf.bayes), one per line::
 
-Diagnoses, exercise by exercise::
-
-    * exercise_1(update_by_hand): a pair returned, not normalised, a division, the prior or the likelihood
-      ignored, a sum, NaN from a zero likelihood, in-place arithmetic on integer counts;
-    * exercise_2(answer_2), Thrun's door: bel(closed), no push, bayes_filter's t = 0 update, the push after
-      the reading, "sense open", not normalised, transition @ belief, only the first value right, shapes;
-    * exercise_3(answer_3), two log evidences: swapped, -inf, no 1/(sqrt(2 pi) std), variance for std, an
-      evidence, log10, the last step, per step, the sign, the distance round the ring, a known start;
-    * exercise_4(answer_4), the ambiguous seeds: a count, outside 0-19, repeated, the complement, the prior,
-      t = 38, the true cell alone, the start cell, how many are missing or extra;
-    * exercise_5(answer_5), mean and variance in 20 steps: swapped, the commanded distance, one step, m^2
-      growth, a standard deviation, a second moment, the spread about the commanded move.
+    exercise_1(update_by_hand): Bayes' rule, prior x likelihood over the evidence, on five inputs;
+    exercise_2(answer_2): bel(open) after each push and "closed" reading of Thrun's door;
+    exercise_3(answer_3): the log evidences of the 40 position readings under std 3 m and 1 m;
+    exercise_4(answer_4): the seeds whose belief near the true cell at t = 39 is below 0.5;
+    exercise_5(answer_5): the mean and variance of the distance moved in 20 steps.
 """
 
 from __future__ import annotations

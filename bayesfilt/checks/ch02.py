@@ -1,18 +1,10 @@
-"""Checks of chapter 02's exercises (the Kalman filter derived); references from bf.kalman, bf.gaussian,
-bf.bayes.
+"""Checks of chapter 02's exercises (the Kalman filter derived; references by bf.kalman, bf.gaussian, bf.bayes)::
 
-Diagnoses, exercise by exercise::
-
-    * exercise_1(excess_1), P+(K) - P+(K*): a single number, the sign, P - KCP for P+(K), the Joseph form
-      without K R K^T, P+(K) itself, S or K* computed without R;
-    * exercise_2(kalman_gain): transposed, S without R, S = C P C^T - R, P C^T S (no inverse), S = R, a
-      division entry by entry, S^{-1} on the left; failures hinted (no broadcast, P = 0, shapes);
-    * exercise_3(info_3), the posterior precision: the covariance, the measurement's or the prediction's
-      precision alone, P added, R not inverted, a precision subtracted;
-    * exercise_4(agree_4, meaning_4, grid_means_uniform): the grid means at two a; a wrong step told its gap
-      (t = 1: the predictions, or steps counted from 1); a hint per wrong option; synonyms accepted;
-    * exercise_5(correlated_gain), cov(w_t, v_{t+1}) = D: transposed, D ignored, no, one or twice the same
-      cross term in Sigma_yy, the sign of D, D^T for D; failures hinted (shapes).
+    exercise_1(excess_1): P+(K) - P+(K*), the covariance a suboptimal gain adds;
+    exercise_2(kalman_gain): the gain K = P C^T S^{-1}, on five inputs;
+    exercise_3(info_3): the posterior precision, the prediction's plus the measurement's;
+    exercise_4(agree_4, meaning_4, grid_means_uniform): the grid filter under uniform noise, and what the KF mean is;
+    exercise_5(correlated_gain): the gain when cov(w_t, v_{t+1}) = D, on four inputs.
 """
 
 from __future__ import annotations

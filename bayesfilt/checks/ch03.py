@@ -1,18 +1,10 @@
-"""Checks of chapter 03's exercises (the damped particle); references from bf.models, bf.kalman, bf.gaussian.
+"""Checks of chapter 03's exercises (the damped particle; references by bf.models, bf.kalman, bf.gaussian)::
 
-Diagnoses, exercise by exercise::
-
-    * exercise_1(stabilising_1, std_1, radius_1): the damped model, a variance, the prediction's std, the velocity,
-      both axes, 1 m; |lambda|^2, the radius of A, a real part, A - K C;
-    * exercise_2(rank_2, detectable_2, var_2): full rank, the rank of C, out of range, not whole; a std, t = 98 or 100,
-      a measured position, a velocity (ξ̇_2, or ξ̇_1 by column), the prior;
-    * exercise_3(normalised_squared): P for P^{-1}, the variances alone, a square root, / n, d^T d, the first or last
-      P for every step, a single number, a (T, T) array; failures hinted (shapes);
-    * exercise_4(end_of_gap_variance, slope_4): a std, one step late or early, length + 1, the velocity, section 8's
-      gap, t = 99, zeros for NaN, the whole P, an array; hints (t = 99, partly NaN); the slope of the std, after the
-      gap, no or one log, mixed logs, inverted;
-    * exercise_5(lag1_5, sees_5): all lags, a shape, lag 0, lags 2-5, raw r_t, rows reordered, a row of another model
-      (the correct one, Q ×0.1, a mix-up), another record.
+    exercise_1(stabilising_1, std_1, radius_1): the steady state of damped_particle(damping=1.0);
+    exercise_2(rank_2, detectable_2, var_2): observability and detectability with C = [1, 0, 0, 0];
+    exercise_3(normalised_squared): the NEES / NIS d_t^T P_t^{-1} d_t, on six inputs;
+    exercise_4(end_of_gap_variance, slope_4): the variance at the end of a gap in the data, and its log-log slope;
+    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of z_t under three mistuned models.
 """
 
 from __future__ import annotations

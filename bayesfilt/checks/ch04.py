@@ -1,12 +1,10 @@
-"""Checks of chapter 04's exercises (the EKF); references from bf.models, bf.ekf, bf.kalman, bf.gaussian.
+"""Checks of chapter 04's exercises (the EKF; references by bf.models, bf.ekf, bf.kalman, bf.gaussian)::
 
-Diagnoses, exercise by exercise::
-
-    1 range_bearing_jacobian: transposed, rows swapped, chapter 03's order, signs, rho vs rho^2, (2, 2), r_x = 0, by hand.
-    2 converted_cov: no rho, J^T R J, stds, J R, R, a diagonal, from r_y, a precision; nees_2: over/underconfident, a sum.
-    3 iterated_ekf_update: n_iter +- 1, repeated, from x^(i), the term missing or negated, no wrap, H at m0; answer_3.
-    4 turn_jacobian: transposed, the omega column (zero, sign, d cos), clockwise, the position rows, the last row, 4 x 4.
-    5 wrapped_innovation: the sign, no wrap, one side only, [0, 2 pi), the range wrapped, the bearing alone; -pi at pi.
+    exercise_1(range_bearing_jacobian): the range-bearing Jacobian H, by hand;
+    exercise_2(converted_cov, nees_2): the converted covariance J R J^T, and the NEES of a filter started from it;
+    exercise_3(iterated_ekf_update, answer_3): the iterated EKF update, and the position of its limit;
+    exercise_4(turn_jacobian): the Jacobian F of a vehicle turning at the rate omega, by hand;
+    exercise_5(wrapped_innovation): the innovation with its bearing wrapped into (-pi, pi].
 """
 
 from __future__ import annotations

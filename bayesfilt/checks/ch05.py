@@ -1,13 +1,10 @@
-"""Checks of chapter 05's exercises; references from bf.particle, bf.models. Each line: the answer, its mistakes.
+"""Checks of chapter 05's exercises (references by bf.particle, bf.models), one per line::
 
-Diagnoses, exercise by exercise::
-
-    1 my_log_normalize (7 inputs): the form, exp under/overflow, m not added back, the mean, log10, the sign,
-      W for log W, a division, not normalised, a zero weight made finite, log W underflowing to -inf.
-    2 answer_2, three ESS: sum of squares, unnormalised, ddof=1, 1/max, a count, NaN, logs or 10^l, order.
-    3 log_increment on lg: R or C Q C^T alone, A dropped or on Q, S as sd, sqrt(S), Sigma, alpha, log10.
-    4 answer_4 = (R_boot, R_opt): the form, an ESS for an R, swapped, "noisier is worse", ranked alike.
-    5 answer_5, the models whose optimal proposal is not the transition: the form, none, each side's hint.
+    exercise_1(my_log_normalize): normalised log-weights and their log sum, without under- or overflow;
+    exercise_2(answer_2): three effective sample sizes;
+    exercise_3(log_increment): the log increment log p(y_t | x_(t-1)) of the optimal proposal, on seven inputs;
+    exercise_4(answer_4): the R of the smallest mean ESS, bootstrap at t = 5 and optimal proposal at t = 39;
+    exercise_5(answer_5): the models whose optimal proposal is not the transition.
 """
 
 from __future__ import annotations

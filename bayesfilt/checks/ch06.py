@@ -1,16 +1,9 @@
-r"""Checks of chapter 06's exercises (resampling, the particle filter); references by the library.
+r"""Checks of chapter 06's exercises (resampling, the particle filter; references by the library)::
 
-Diagnoses, exercise by exercise::
-
-    exercise_1(my_systematic): ancestors of the comb p_j = (j + u)/N; counts, cumulative counts, the points, a shift
-        by one, unnormalised weights, side='left', combs j/N + u, j = 1..N, j/N, floats, order, range, weight 0,
-        length, random draws.
-    exercise_2(answer_2): E[N^(2)], Var(N^(2)) multinomial/systematic/residual: wrong formulas, particle 0, order,
-        a near miss.
-    exercise_3(answer_3): resamplings per record (a total, fraction, percentage, complement, reversed, falling) and
-        theta_worst (an RMSE, np.argmin).
-    exercise_4(answer_4, n_particles): the smallest roughening K that keeps track (too small, too large, a count of
-        runs) and the verdict: the median NEES against the median of chi2_4.
+    exercise_1(my_systematic): systematic resampling's ancestors a_j of the comb p_j = (j + u)/N;
+    exercise_2(answer_2): E[N^(2)] and Var(N^(2)) under multinomial, systematic and residual resampling;
+    exercise_3(answer_3): resamplings per record at three ESS thresholds, and the threshold of largest RMSE;
+    exercise_4(answer_4, n_particles): the smallest roughening K that keeps track, and its NEES verdict.
 """
 
 from __future__ import annotations
