@@ -39,6 +39,7 @@ import importlib.util
 import inspect
 import numbers
 import os
+import pkgutil
 import re
 import signal
 import threading
@@ -263,10 +264,8 @@ def _frozen(a) -> np.ndarray:
 
 
 def _matches(a: np.ndarray, wrong, rtol: float, atol: float) -> bool:
-    if wrong is None:
-        return False
-    wrong = np.asarray(wrong, dtype=float)
-    return a.shape == wrong.shape and bool(np.allclose(a, wrong, rtol=rtol, atol=atol))
+    w = np.asarray(np.nan if wrong is None else wrong, dtype=float)
+    return wrong is not None and a.shape == w.shape and bool(np.allclose(a, w, rtol, atol))
 
 
 def _combine(parts: Sequence[tuple[str, Feedback]]) -> Feedback:
@@ -594,7 +593,5 @@ def __getattr__(name: str):
 
 
 def __dir__():
-    import pkgutil
-
     chapters = {m.name for m in pkgutil.iter_modules(__path__) if re.fullmatch(r"ch\d\d", m.name)}
     return sorted(set(globals()) | chapters)

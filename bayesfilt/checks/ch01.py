@@ -80,12 +80,6 @@ _UPDATE_MISTAKES = [(lambda p, l: lambda a: (np.any(p == 0) or np.any(l == 0)) a
                      "adds prior and likelihood; Bayes' rule multiplies them.")]
 
 
-def _counts_hint(exc, args) -> str:
-    return (" Hint: the prior is integer counts here, and in-place arithmetic (*=, /=) cannot store "
-            "fractions in an integer array: compute a new array instead of changing prior."
-            if isinstance(exc, TypeError) and args[0].dtype.kind in "iu" and "cast" in str(exc) else "")
-
-
 def exercise_1(update_by_hand) -> Feedback:
     """update_by_hand(prior, likelihood) against bf.bayes.update on five inputs."""
     rng = np.random.default_rng(101)
@@ -94,9 +88,11 @@ def exercise_1(update_by_hand) -> Feedback:
              (rng.dirichlet(np.ones(N_CELLS)), _corridor()[1][1]),      # a corridor belief, "door"
              (np.array([0.0, 0.25, 0.25, 0.5, 0.0]), np.array([1.0, 0.0, 1.0, 0.0, 1.0])),  # zeros
              (np.array([0.1, 0.2, 0.3, 0.4]), 1e-3 * np.array([4.0, 3.0, 2.0, 1.0]))]       # small
-    return compare_function(_hinted(update_by_hand, _counts_hint), lambda p, l: bayes.update(p, l).posterior,
-                            cases, what="update_by_hand", compare=_posterior_compare,
-                            mistakes=_UPDATE_MISTAKES)
+    return compare_function(_hinted(update_by_hand, lambda exc, args: (
+        " Hint: the prior is integer counts here, and in-place arithmetic (*=, /=) cannot store fractions in an "
+        "integer array: compute a new array instead of changing prior."
+        if isinstance(exc, TypeError) and args[0].dtype.kind in "iu" and "cast" in str(exc) else "")),
+        lambda p, l: bayes.update(p, l).posterior, cases, "update_by_hand", _posterior_compare, _UPDATE_MISTAKES)
 
 
 def _door_run(likelihood=SENSE_CLOSED, order="push first", normalise=True, transposed=False):

@@ -14,14 +14,13 @@ import numbers
 
 import numpy as np
 
-from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _combine, _frozen, _hinted, _named,
-               _not_attempted, _wrong, compare_array, compare_choice, compare_function,
-               register as _register)
+from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _combine, _frozen, _hinted, _named, _not_attempted,
+               _wrong, compare_array, compare_choice, compare_function, register as _register)
 from .. import bayes, gaussian, kalman, models
 
-# the statements' numbers: a predicted covariance (m^2, m^2/step, (m/step)^2), the position sensor
-# and its noise variance (m^2); the gain of exercise 1, the better sensor of exercise 3, the noise
-# gain of the damped particle (the force acts on the velocity) and cov(w_t, v_{t+1}) of exercise 5
+# the statements' numbers: a predicted covariance (m^2, m^2/step, (m/step)^2), the position sensor and its noise
+# variance (m^2); the gain of exercise 1, the better sensor of exercise 3, the noise gain of the damped particle
+# (the force acts on the velocity) and cov(w_t, v_{t+1}) of exercise 5
 P_EX, C_EX, R_EX = _frozen([[1.2, 0.45], [0.45, 0.34]]), _frozen([[1.0, 0.0]]), _frozen([[1.0]])
 K_1, R_3, G_EX, D_5 = _frozen([[0.5], [0.1]]), _frozen([[0.25]]), _frozen([[0.0], [1.0]]), _frozen([[0.2]])
 # exercise 4: the 1-D model and grid of "The Kalman filter is the Bayes recursion of chapter 01",
@@ -35,11 +34,6 @@ OPTIONS_4 = ("conditional mean", "best linear estimate", "neither")
 def _posterior(P, C, R) -> kalman.Update:
     """The library's measurement update of a prediction with covariance P (mean and y zero)."""
     return kalman.update(np.zeros(np.shape(P)[0]), P, np.zeros(np.shape(C)[0]), C, R)
-
-
-def _joseph(P, C, R, K):
-    IKC = np.eye(P.shape[0]) - K @ C
-    return IKC @ P @ IKC.T + K @ R @ K.T
 
 
 def _gain(P, C, R, S=None):
@@ -59,8 +53,9 @@ def _shapes_hint(shapes: str):
 def exercise_1(excess) -> Feedback:
     """excess_1 = P+(K) - P+(K*) for the gain K_1 (shape (2, 2))."""
     P, C, R, K, w = P_EX, C_EX, R_EX, K_1, "excess_1"
-    best, CPCt = _posterior(P, C, R).cov, C @ P @ C.T
-    expected, IKC, K0 = _joseph(P, C, R, K) - best, np.eye(2) - K @ C, _gain(P, C, R, CPCt)
+    best, CPCt, IKC = _posterior(P, C, R).cov, C @ P @ C.T, np.eye(2) - K @ C
+    joseph, K0 = IKC @ P @ IKC.T + K @ R @ K.T, _gain(P, C, R, CPCt)          # P+(K) for any gain K
+    expected = joseph - best
     return _named(excess, expected, w, [
         (lambda a: a.size == 1, f"{w} is a single number, but P+(K) - P+(K*) is a 2 x 2 matrix: K - "
                                 f"K* is a column, so (K - K*) S (K - K*)^T is an outer product."),
@@ -70,9 +65,8 @@ def exercise_1(excess) -> Feedback:
                                f"at the optimal gain K*; for any other gain it is the Joseph form."),
         (IKC @ P @ IKC.T - best, f"{w}: your Joseph form misses the term K R K^T, the sensor noise "
                                  f"that the gain lets into the estimate."),
-        (_joseph(P, C, R, K), f"{w} is P+(K) itself; subtract the covariance at the optimal gain, P+(K*)."),
-        ((K - K0) @ CPCt @ (K - K0).T, f"{w}: S is C P C^T + R; yours is computed with S = C P C^T, R "
-                                       f"left out."),
+        (joseph, f"{w} is P+(K) itself; subtract the covariance at the optimal gain, P+(K*)."),
+        ((K - K0) @ CPCt @ (K - K0).T, f"{w}: S is C P C^T + R; yours is computed with S = C P C^T, R left out."),
         ((K - _gain(P, C, R)) @ CPCt @ (K - _gain(P, C, R)).T,
          f"{w}: the middle factor is S = C P C^T + R: you left R out of it."),
         ((K - K0) @ (CPCt + R) @ (K - K0).T, f"{w}: your K* is computed with S = C P C^T; the optimal "
@@ -97,21 +91,19 @@ _GAIN_MISTAKES = [
 ]
 
 
-def _gain_hint(exc, args) -> str:
-    if "broadcast" in str(exc):
-        return " Hint: S is an m x m matrix here; use its inverse (np.linalg.inv or solve), not a division by it."
-    if isinstance(exc, np.linalg.LinAlgError) and not np.any(args[0]):
-        return " Hint: here P = 0 (a state known exactly), singular; the gain only needs the inverse of S (= R)."
-    return _shapes_hint("P (n, n), C (m, n), R (m, m), S (m, m), P C^T (n, m) and the gain (n, m)")(exc, args)
-
-
 def exercise_2(kalman_gain) -> Feedback:
     """kalman_gain(P, C, R) against bf.kalman.update(...).gain on five inputs."""
+    def hint(exc, args) -> str:
+        if "broadcast" in str(exc):
+            return " Hint: S is an m x m matrix here; use its inverse (np.linalg.inv or solve), not a division by it."
+        if isinstance(exc, np.linalg.LinAlgError) and not np.any(args[0]):
+            return " Hint: here P = 0 (a state known exactly), singular; the gain only needs the inverse of S (= R)."
+        return _shapes_hint("P (n, n), C (m, n), R (m, m), S (m, m), P C^T (n, m) and the gain (n, m)")(exc, args)
     rng = np.random.default_rng(20202)             # then two measurement components, and P = 0
     cases = [(P_EX, C_EX, R_EX), (np.array([[4.0]]), np.array([[2.0]]), np.array([[0.5]]))] + [
         (_random_covariance(rng, n), np.round(rng.normal(size=(2, n)), 3), _random_covariance(rng, 2))
         for n in (2, 3)] + [(np.zeros((2, 2)), C_EX, R_EX)]
-    return compare_function(_hinted(kalman_gain, _gain_hint), lambda P, C, R: _posterior(P, C, R).gain,
+    return compare_function(_hinted(kalman_gain, hint), lambda P, C, R: _posterior(P, C, R).gain,
                             [tuple(map(np.array, case)) for case in cases], what="kalman_gain",
                             mistakes=_GAIN_MISTAKES)
 
@@ -152,14 +144,6 @@ def _uniform_grid_means(a: float) -> np.ndarray:
     likelihoods = [bayes.grid_likelihood(g, y, lambda y, x: pdf(y, C * x, R)) for y in ys[:, 0]]
     prior_0 = pdf(g, model.m0[0], model.P0[0, 0])
     return _frozen(bayes.bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods).posteriors @ g)
-
-
-def _means_compare(out, expected, what="the output") -> Feedback:
-    fb = compare_array(out, expected, what)
-    return fb if fb.status != INCORRECT else _wrong(
-        f"grid_means_uniform: {fb.message} (The 10 posterior means, posteriors @ grid, of bayes_filter("
-        f"prior_0 / prior_0.sum(), transition, likelihoods) with the density 1/(2a) on |x_next - 0.9 "
-        f"x_prev| <= a; test input 1 is a = sqrt(1.5), test input 2 a = 1.)")
 
 
 def _step_feedback(agree) -> Feedback:
@@ -209,9 +193,15 @@ def _meaning_feedback(meaning) -> Feedback:
 def exercise_4(agree, meaning, grid_means_uniform=None) -> Feedback:
     """agree_4 (the step where grid and Kalman posterior means agree), meaning_4 and, when given,
     grid_means_uniform(a) against the library's grid filter at a = sqrt(1.5) and a = 1."""
+    def means_compare(out, expected, what="the output") -> Feedback:
+        fb = compare_array(out, expected, what)
+        return fb if fb.status != INCORRECT else _wrong(
+            f"grid_means_uniform: {fb.message} (The 10 posterior means, posteriors @ grid, of bayes_filter(prior_0 / "
+            f"prior_0.sum(), transition, likelihoods) with the density 1/(2a) on |x_next - 0.9 x_prev| <= a; test "
+            f"input 1 is a = sqrt(1.5), test input 2 a = 1.)")
     if grid_means_uniform is not None:
         means = compare_function(grid_means_uniform, _uniform_grid_means, [(HALF_WIDTH_4,), (1.0,)],
-                                 what="grid_means_uniform", compare=_means_compare)
+                                 what="grid_means_uniform", compare=means_compare)
         return _combine([("grid_means_uniform", means),
                          ("agree_4 and meaning_4", exercise_4.__wrapped__(agree, meaning))])
     parts = (("agree_4", _step_feedback(agree)), ("meaning_4", _meaning_feedback(meaning)))
