@@ -51,19 +51,6 @@ def _simulate(seed: int):
     return x, (rng.random(T_STEPS) < sensor[1, x]).astype(int)
 
 
-def _posterior_compare(out, expected, what="the output") -> Feedback:
-    """compare_array for a posterior; a named mistake is a predicate on the output."""
-    if callable(expected):
-        return Feedback(CORRECT if expected(np.asarray(out, dtype=float)) else INCORRECT, "")
-    if isinstance(out, tuple) and len(out) == 2:
-        return _wrong(f"{what} is a pair: return only the posterior, an array of shape "
-                      f"{np.shape(expected)}, not (posterior, evidence).")
-    if isinstance(out, numbers.Number):
-        return _wrong(f"{what} is a single number; return the whole posterior, an array of shape "
-                      f"{np.shape(expected)} (one probability per state).")
-    return compare_array(out, expected, what, probability=True)
-
-
 _UPDATE_MISTAKES = [(lambda p, l: lambda a: (np.any(p == 0) or np.any(l == 0)) and not np.all(np.isfinite(a)),
                      "contains NaN or inf: your function divides by zero where the likelihood (or the prior) "
                      "is 0. Bayes' rule multiplies prior and likelihood, and divides only by the evidence."),
@@ -82,6 +69,17 @@ _UPDATE_MISTAKES = [(lambda p, l: lambda a: (np.any(p == 0) or np.any(l == 0)) a
 
 def exercise_1(update_by_hand) -> Feedback:
     """update_by_hand(prior, likelihood) against bf.bayes.update on five inputs."""
+    def _posterior_compare(out, expected, what="the output") -> Feedback:
+        """compare_array for a posterior; a named mistake is a predicate on the output."""
+        if callable(expected):
+            return Feedback(CORRECT if expected(np.asarray(out, dtype=float)) else INCORRECT, "")
+        if isinstance(out, tuple) and len(out) == 2:
+            return _wrong(f"{what} is a pair: return only the posterior, an array of shape "
+                          f"{np.shape(expected)}, not (posterior, evidence).")
+        if isinstance(out, numbers.Number):
+            return _wrong(f"{what} is a single number; return the whole posterior, an array of shape "
+                          f"{np.shape(expected)} (one probability per state).")
+        return compare_array(out, expected, what, probability=True)
     rng = np.random.default_rng(101)
     cases = [(np.array([0.5, 0.5]), SENSE_OPEN),                       # Thrun's door
              (np.array([2, 6, 2]), np.array([0.9, 0.05, 0.9])),        # integer counts
@@ -95,24 +93,22 @@ def exercise_1(update_by_hand) -> Feedback:
         lambda p, l: bayes.update(p, l).posterior, cases, "update_by_hand", _posterior_compare, _UPDATE_MISTAKES)
 
 
-def _door_run(likelihood=SENSE_CLOSED, order="push first", normalise=True, transposed=False):
-    """bel(open) after each of the three readings, computed right or in a plausible wrong way."""
-    b, out = np.array([0.5, 0.5]), []
-    for step in range(3):
-        if order == "reading first":                            # bf.bayes.bayes_filter's order
-            b = bayes.update(bayes.predict(b, PUSH) if step else b, likelihood).posterior
-        elif order == "push after":
-            b = bayes.predict(bayes.update(b, likelihood).posterior, PUSH)
-        else:
-            if order != "no push":
-                b = PUSH @ b if transposed else bayes.predict(b, PUSH) if normalise else b @ PUSH
-            b = bayes.update(b, likelihood).posterior if normalise else b * likelihood
-        out.append(b[0])
-    return np.array(out)
-
-
 def exercise_2(answer) -> Feedback:
     """answer_2: bel(open) after each of three steps (push, sense "closed") from 0.5."""
+    def _door_run(likelihood=SENSE_CLOSED, order="push first", normalise=True, transposed=False):
+        """bel(open) after each of the three readings, computed right or in a plausible wrong way."""
+        b, out = np.array([0.5, 0.5]), []
+        for step in range(3):
+            if order == "reading first":                            # bf.bayes.bayes_filter's order
+                b = bayes.update(bayes.predict(b, PUSH) if step else b, likelihood).posterior
+            elif order == "push after":
+                b = bayes.predict(bayes.update(b, likelihood).posterior, PUSH)
+            else:
+                if order != "no push":
+                    b = PUSH @ b if transposed else bayes.predict(b, PUSH) if normalise else b @ PUSH
+                b = bayes.update(b, likelihood).posterior if normalise else b * likelihood
+            out.append(b[0])
+        return np.array(out)
     w, ref = "answer_2", _door_run()
     near = functools.partial(np.allclose, rtol=1e-6, atol=ATOL_HAND)
     mistakes = [
@@ -158,13 +154,11 @@ def _position_run(std: float, variant: str = "right"):
     return run.log_evidence, run.evidences
 
 
-def _near_log(x, v) -> bool:
-    """x within the tolerance of v (relatively for an evidence v near 0)."""
-    return bool(np.isclose(x, v, rtol=1e-3, atol=0) if 0 < v < 1e-3 else abs(x - v) <= ATOL_LOG_EVIDENCE)
-
-
 def exercise_3(answer) -> Feedback:
     """answer_3 = [log evidence with std 3 m, with std 1 m] of the 40 position readings."""
+    def _near_log(x, v) -> bool:
+        """x within the tolerance of v (relatively for an evidence v near 0)."""
+        return bool(np.isclose(x, v, rtol=1e-3, atol=0) if 0 < v < 1e-3 else abs(x - v) <= ATOL_LOG_EVIDENCE)
     w = "answer_3"
     ref = np.array([_position_run(s)[0] for s in MODEL_STDS])
     if isinstance(answer, (list, tuple, np.ndarray)) and -np.inf in np.asarray(answer, dtype=object):

@@ -232,14 +232,6 @@ def _correlated_reference(P, C, R, G, D):
                                                e).mean for e in np.eye(m)])
 
 
-def _correlated_case(rng: np.random.Generator, n: int, q: int, m: int) -> tuple:
-    """P = P_a + G Q G^T and a joint covariance [[Q, D], [D^T, R]] of (w_t, v_{t+1}): a valid model."""
-    joint = _random_covariance(rng, q + m)
-    G = np.round(rng.normal(size=(n, q)), 3)
-    P = _random_covariance(rng, n) + G @ joint[:q, :q] @ G.T
-    return np.round(P, 3), np.round(rng.normal(size=(m, n)), 3), joint[q:, q:], G, joint[:q, q:]
-
-
 _CORRELATED_MISTAKES = [
     (lambda *args: _correlated_reference(*args).T, "the gain is transposed: one row per state component."),
     (lambda P, C, R, G, D: _gain(P, C, R), "this is the usual Kalman gain, as if D were 0: with D != 0, "
@@ -263,6 +255,12 @@ _CORRELATED_MISTAKES = [
 def exercise_5(correlated_gain) -> Feedback:
     """correlated_gain(P, C, R, G, D) against bf.gaussian.condition on four inputs (D = 0.2 with
     C G = 0, a random (n, q, m) = (3, 2, 2), D = 0, a random (4, 1, 3))."""
+    def _correlated_case(rng: np.random.Generator, n: int, q: int, m: int) -> tuple:
+        """P = P_a + G Q G^T and a joint covariance [[Q, D], [D^T, R]] of (w_t, v_{t+1}): a valid model."""
+        joint = _random_covariance(rng, q + m)
+        G = np.round(rng.normal(size=(n, q)), 3)
+        P = _random_covariance(rng, n) + G @ joint[:q, :q] @ G.T
+        return np.round(P, 3), np.round(rng.normal(size=(m, n)), 3), joint[q:, q:], G, joint[:q, q:]
     rng = np.random.default_rng(50505)
     cases = [(P_EX, C_EX, R_EX, G_EX, D_5), _correlated_case(rng, 3, 2, 2),
              (P_EX, C_EX, R_EX, G_EX, np.zeros((1, 1))), _correlated_case(rng, 4, 1, 3)]

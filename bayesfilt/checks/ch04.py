@@ -15,9 +15,8 @@ import functools
 import numpy as np
 
 from .. import ekf, gaussian, kalman, models
-from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _frozen, _hinted, _matches,
-               _not_attempted, _wrong, compare_array, compare_function, compare_number,
-               register as _register)
+from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _frozen, _hinted, _matches, _not_attempted,
+               _wrong, compare_array, compare_function, compare_number, register as _register)
 
 # the statements' numbers; each function's check adds two random cases, drawn with its seed
 H_SEED, CONVERT_SEED, TURN_SEED, INNOVATION_SEED, ON_THE_RY_AXIS, EXACTLY_PI = 4041, 4042, 4044, 4045, 4, 5
@@ -84,14 +83,6 @@ _jacobian_states = functools.partial(_cases, [(x,) for x in H_STATES], H_SEED, l
     np.round(rng.uniform(-20.0, 20.0, size=4), 3),), lambda x: np.hypot(x[0], x[1]) > 1.0)
 
 
-def _h_variant(x, read=(0, 1), cols=(0, 1), rng="rho", bearing="rho2", sign=1.0, then=lambda H: H):
-    rx, ry = float(x[read[0]]), float(x[read[1]])
-    rho2, H = rx * rx + ry * ry, np.zeros((2, 4))
-    H[0, list(cols)] = np.array([rx, ry]) * {"rho": 1 / np.sqrt(rho2), "one": 1.0, "square": 2.0}[rng]
-    H[1, list(cols)] = sign * np.array([-ry, rx]) / {"rho2": rho2, "rho": np.sqrt(rho2)}[bearing]
-    return then(H)
-
-
 _H_MISTAKES = [
     ({"then": np.transpose}, "H is transposed: a row per measurement component, a column per state one, shape (2, 4)."),
     ({"then": np.flipud}, "the rows are swapped: h = [range, bearing], so row 0 holds the derivatives of the range."),
@@ -112,6 +103,12 @@ _H_MISTAKES = [
 
 def exercise_1(range_bearing_jacobian) -> Feedback:
     """Check ``range_bearing_jacobian(x)`` against the model's ``H`` at ``H_STATES`` and two seeded states."""
+    def _h_variant(x, read=(0, 1), cols=(0, 1), rng="rho", bearing="rho2", sign=1.0, then=lambda H: H):
+        rx, ry = float(x[read[0]]), float(x[read[1]])
+        rho2, H = rx * rx + ry * ry, np.zeros((2, 4))
+        H[0, list(cols)] = np.array([rx, ry]) * {"rho": 1 / np.sqrt(rho2), "one": 1.0, "square": 2.0}[rng]
+        H[1, list(cols)] = sign * np.array([-ry, rx]) / {"rho2": rho2, "rho": np.sqrt(rho2)}[bearing]
+        return then(H)
     on_axis = (lambda a, e: e.shape == (2, 4) and e[0, 0] == 0 and not np.all(np.isfinite(a)), "on the r_y axis "
                "(r_x = 0) your H contains NaN or inf: the derivation through arctan(r_y / r_x) divides by r_x, but H "
                "is finite wherever rho > 0; simplify until only rho^2 is in a denominator.")
@@ -331,16 +328,14 @@ _innovation_cases = functools.partial(_cases, INNOVATION_CASES, INNOVATION_SEED,
     np.round([rng.uniform(1, 20), rng.uniform(-np.pi, np.pi)], 3) for _ in range(2)))
 
 
-def _plain(y, p, wrap=lambda d: d, side=0, cases=()):
-    """wrap(y - p); with side +-1: y - p on a case across the cut that way after one across the other, else None."""
-    d = wrap(np.asarray(y, dtype=float) - np.asarray(p, dtype=float))
-    k = next((i for i, (a, b) in enumerate(cases) if np.array_equal(a, y) and np.array_equal(b, p)), 0)
-    before = [np.sign(a[1] - b[1]) for a, b in cases[:k] if abs(a[1] - b[1]) > np.pi]
-    return d if not side or side * d[1] > np.pi and -side in before else None
-
-
 def exercise_5(wrapped_innovation) -> Feedback:
     """Check ``wrapped_innovation(y, y_pred)`` against ``bf.models.range_bearing_residual`` on eight pairs."""
+    def _plain(y, p, wrap=lambda d: d, side=0, cases=()):
+        """wrap(y - p); with side +-1: y - p on a case across the cut that way after one across the other, else None."""
+        d = wrap(np.asarray(y, dtype=float) - np.asarray(p, dtype=float))
+        k = next((i for i, (a, b) in enumerate(cases) if np.array_equal(a, y) and np.array_equal(b, p)), 0)
+        before = [np.sign(a[1] - b[1]) for a, b in cases[:k] if abs(a[1] - b[1]) > np.pi]
+        return d if not side or side * d[1] > np.pi and -side in before else None
     cases, remark, both = _innovation_cases(), [], "return both components, [range, wrapped bearing], shape (2,)."
     mistakes = [({"side": s, "cases": cases}, f"you wrap a bearing difference {o} but not this one, {t}; wrap both "
                  f"ways.") for s, o, t in [(-1, "above pi", "below -pi"), (1, "below -pi", "above pi")]] + [

@@ -169,15 +169,6 @@ def _lg(r: float = R):
     return models.LinearGaussian(A=[[A]], C=[[C]], Q=[[Q]], R=[[r]], m0=[0.0], P0=[[1.0]])
 
 
-def _increment(x_prev: float, y: float) -> tuple[float, float, float]:
-    """(log alpha from the three densities at one draw, x_prev, y): messages name the input."""
-    lg, X_prev, Y = _lg(), np.array([[x_prev]]), np.array([y])
-    opt = particle.optimal_proposal(lg)
-    X = opt.sample(np.random.default_rng(0), X_prev, Y, 1)
-    return float(lg.measurement_logpdf(Y, X)[0] + lg.transition_logpdf(X, X_prev)[0]
-                 - opt.logpdf(X, X_prev, Y, 1)[0]), x_prev, y
-
-
 def _g(var: float, a: float = C * A):
     """log N(y; a x_prev, var) as a function of (x_prev, y)."""
     return lambda x, y: -0.5 * math.log(2 * math.pi * var) - 0.5 * (y - a * x) ** 2 / var
@@ -200,6 +191,13 @@ MISTAKES_3 = [
 
 
 def exercise_3(log_increment) -> Feedback:
+    def _increment(x_prev: float, y: float) -> tuple[float, float, float]:
+        """(log alpha from the three densities at one draw, x_prev, y): messages name the input."""
+        lg, X_prev, Y = _lg(), np.array([[x_prev]]), np.array([y])
+        opt = particle.optimal_proposal(lg)
+        X = opt.sample(np.random.default_rng(0), X_prev, Y, 1)
+        return float(lg.measurement_logpdf(Y, X)[0] + lg.transition_logpdf(X, X_prev)[0]
+                     - opt.logpdf(X, X_prev, Y, 1)[0]), x_prev, y
     def _number_3(out, expected, what: str = "the output") -> Feedback:   # a wrong number: where, a hint
         fb = compare_number(out, expected[0], what=what, rtol=TOL, atol=TOL)
         v = out.item() if isinstance(out, np.ndarray) and out.size == 1 else out

@@ -65,15 +65,6 @@ def _pair(answer, what: str, first: str, second: str):
 
 
 # --- exercise 1: systematic resampling by hand ------------------------------------------------------------
-def _cases_1() -> list[tuple[np.ndarray, float]]:
-    rng, six = np.random.default_rng(606), np.array(SIX_WEIGHTS)
-    w50, w1000 = rng.exponential(size=50), rng.exponential(size=1000) ** 3
-    w50[[3, 17, 18]] = 0.0                                    # unnormalised, with three zero weights
-    return [(six, U_STATEMENT), (six, 0.0), (np.array([0.0, 0.0, 1.0, 0.0, 0.0]), 0.3), (np.array([0.0, 0.5, 0.5]),
-            0.0), (3.0 * six, 0.4), (np.array([0.3, 0.2, 0.1]), 0.9), (np.array([1.0]), 0.7),
-            (w50, float(rng.random())), (w1000 / w1000.sum(), float(rng.random()))]
-
-
 def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | None:
     """What is wrong with the ancestors ``a`` (of the right length) on input ``s``; None if nothing."""
     n, total = len(w), float(np.sum(w))
@@ -120,15 +111,20 @@ def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | No
                               f"[Ω^(i-1), Ω^(i)) is empty. {FIRST} (strictly)."),
         (not ascending, f"'s indices on {s} are not sorted ascending, as the points are."),
         (True, f" gives a wrong ancestor on {s}: the first at j = {j}, the point p_j = {p[j]:.4f}, put in "
-               f"particle {idx[j]}'s piece [Ω^(i-1), Ω^(i)). Stack the normalised weights (Ω^(i) = W^(1) + ... + W^(i)) "
-               f"and take the first i with p_j < Ω^(i)."),
+               f"particle {idx[j]}'s piece [Ω^(i-1), Ω^(i)). Stack the normalised weights (Ω^(i) = W^(1) + ... + "
+               f"W^(i)) and take the first i with p_j < Ω^(i)."),
     ]
     return _wrong("my_systematic" + next(message for mistake, message in mistakes if mistake))
 
 
 def exercise_1(my_systematic) -> Feedback:
     """``my_systematic(w, u)`` against ``bf.resampling.from_uniforms(w, np.full(len(w), u))``."""
-    what, floats, cases = "my_systematic", [], _cases_1()
+    rng, six, what, floats = np.random.default_rng(606), np.array(SIX_WEIGHTS), "my_systematic", []
+    w50, w1000 = rng.exponential(size=50), rng.exponential(size=1000) ** 3
+    w50[[3, 17, 18]] = 0.0                                    # unnormalised, with three zero weights
+    cases = [(six, U_STATEMENT), (six, 0.0), (np.array([0.0, 0.0, 1.0, 0.0, 0.0]), 0.3), (np.array([0.0, 0.5, 0.5]),
+             0.0), (3.0 * six, 0.4), (np.array([0.3, 0.2, 0.1]), 0.9), (np.array([1.0]), 0.7),
+             (w50, float(rng.random())), (w1000 / w1000.sum(), float(rng.random()))]
     if my_systematic is not None and my_systematic is not Ellipsis and not callable(my_systematic):
         return _wrong(f"{what} must be a function (def my_systematic(w, u): ...), got "
                       f"{type(my_systematic).__name__}.")
@@ -202,11 +198,13 @@ def _variants_2() -> list[list[tuple[float, str]]]:
         [(MW, f"is M W^(2) (a Poisson variance); the multinomial count is binomial, Var(N^(2)) = {mw}."),
          (w * (1 - w), f"is the variance W^(2) (1 - W^(2)) of one draw's indicator; the M independent draws add "
                        f"up: {mw}."),
-         (MW * (1 - MW), f"puts M W^(2) inside the bracket; the formula is {mw}, with the weight W^(2) in (1 - W^(2))."),
+         (MW * (1 - MW), f"puts M W^(2) inside the bracket; the formula is {mw}, with the weight W^(2) in "
+                         f"(1 - W^(2))."),
          (M * M * w * (1 - w), f"has M^2; the variance of a sum of M independent indicators is M times the "
                                f"variance of one: {mw}."), (math.sqrt(M * w * (1 - w)), std), (other[1], zero)],
         [(M * w * (1 - w), "is the multinomial variance; the systematic comb puts the teeth 1/M apart, so N^(2) is "
-                           "always floor(M W^(2)) or ceil(M W^(2)): Var = φ (1 - φ) with φ = M W^(2) - floor(M W^(2))."),
+                           "always floor(M W^(2)) or ceil(M W^(2)): Var = φ (1 - φ) with φ = M W^(2) - floor(M "
+                           "W^(2))."),
          (f, "is φ = M W^(2) - floor(M W^(2)), the probability that N^(2) takes the larger value; the variance of "
              "floor(M W^(2)) + Bernoulli(φ) is φ (1 - φ)."),
          (1 - f, "is 1 - φ, the probability of the smaller value; the variance of floor(M W^(2)) + Bernoulli(φ) is "
