@@ -147,36 +147,25 @@ def _same(a, b) -> bool:
         return True
 
 
-def _watched_globals(fun) -> dict:
-    """The chapter's arrays (and named tuples / dataclasses of arrays) that ``fun`` refers to."""
-    code, space = getattr(fun, "__code__", None), getattr(fun, "__globals__", None)
-    if code is None or not isinstance(space, dict):
-        return {}
-    names, stack = set(), [code]
-    while stack:
-        c = stack.pop()
-        names.update(c.co_names)
-        stack.extend(k for k in c.co_consts if inspect.iscode(k))
-    return {name: obj for name in sorted(names) if isinstance(obj := space.get(name), np.ndarray)
-            or ((hasattr(obj, "_fields") or hasattr(obj, "__dataclass_fields__"))
-                and not isinstance(obj, type))}
-
-
-def _arg_names(fun, n: int) -> list[str]:
-    try:
-        names = [p.name for p in inspect.signature(fun).parameters.values()
-                 if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
-    except (TypeError, ValueError):
-        names = []
-    return (names + [f"argument {k + 1}" for k in range(len(names), n)])[:n]
-
-
 def _guard(fun, name: str | None = None, limit: float | None = None):
     """``fun`` for a check: a call over ``limit`` s (default TIME_LIMIT), or one that changes an
     argument or a chapter array in place (put back), ends the check with a "Not yet"."""
     name = name or getattr(fun, "__name__", "your function")
     name = "your function" if name == "<lambda>" else name
-    watched = _watched_globals(fun)
+    code, space = getattr(fun, "__code__", None), getattr(fun, "__globals__", None)
+    refs, stack = set(), [code] if code is not None and isinstance(space, dict) else []
+    while stack:                                  # the names that fun and its inner functions use
+        c = stack.pop()
+        refs.update(c.co_names)
+        stack.extend(k for k in c.co_consts if inspect.iscode(k))
+    watched = {k: obj for k in sorted(refs) if isinstance(obj := space.get(k), np.ndarray)
+               or ((hasattr(obj, "_fields") or hasattr(obj, "__dataclass_fields__"))
+                   and not isinstance(obj, type))}  # the chapter's arrays, tuples, dataclasses
+    try:
+        params = [p.name for p in inspect.signature(fun).parameters.values()
+                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    except (TypeError, ValueError):
+        params = []
 
     @functools.wraps(fun)
     def guarded(*args, **kwargs):
@@ -189,7 +178,8 @@ def _guard(fun, name: str | None = None, limit: float | None = None):
         with _time_limit(seconds, f"your function {name} did not return within {seconds:g} s: "
                                  f"an endless loop? (test input: {_describe_args(args)})"):
             out = fun(*args, **kwargs)
-        for arg, now, then in zip(_arg_names(fun, len(args)), args, before):
+        names = params + [f"argument {k + 1}" for k in range(len(params), len(args))]
+        for arg, now, then in zip(names, args, before):
             if not _same(now, then):
                 alias = "y" if arg == "x" else "x"
                 raise _Stop(

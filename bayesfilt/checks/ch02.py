@@ -146,53 +146,49 @@ def _uniform_grid_means(a: float) -> np.ndarray:
     return _frozen(bayes.bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods).posteriors @ g)
 
 
-def _step_feedback(agree) -> Feedback:
-    w = "agree_4"
-    if agree is None or agree is Ellipsis:
-        return _not_attempted(w)
-    agree = agree.item() if isinstance(agree, np.ndarray) and agree.size == 1 else agree
-    if isinstance(agree, (bool, np.bool_)) or not isinstance(agree, numbers.Real):
-        return _wrong(f"{w} must be a single time step, an int such as 3 (got {type(agree).__name__}).")
-    if not np.isfinite(agree) or agree != round(agree):
-        return _wrong(f"{w} must be a whole number, a time step t = 0, ..., {STEPS_1D - 1}.")
-    if not 0 <= (t := int(round(agree))) < STEPS_1D:
-        return _wrong(f"{w} = {t} is not one of the steps t = 0, ..., {STEPS_1D - 1}.")
-    gaps = np.abs(_uniform_grid_means(HALF_WIDTH_4) - kalman.kalman_filter(*_model_1d()).means[:, 0])
-    if list(np.flatnonzero(gaps < AGREE_TOL_4)) == [t]:
-        return Feedback(CORRECT, f"{w} is right.")
-    return _wrong(f"{w}: at t = {t} the grid posterior mean differs from the Kalman filter's by "
-                  f"{gaps[t]:.1e} m, far more than {AGREE_TOL_4:.0e}." + (
-                      " Did you compare the predictions (grid_res.priors) rather than the posteriors, "
-                      "or count the steps from 1? Steps are numbered from t = 0, y_0 measuring x_0."
-                      if t == 1 else " Print |grid mean - Kalman mean| for each of the 10 steps."))
-
-
 _SYNONYMS = {"best linear estimate": ("best linear estimator", "best linear", "the best linear estimate", "blue",
                                       "best linear unbiased estimate", "best linear unbiased estimator",
                                       "linear mmse", "lmmse"),
              "conditional mean": ("conditional mean estimate", "the conditional mean", "posterior mean", "mmse")}
 
 
-def _meaning_feedback(meaning) -> Feedback:
-    if isinstance(meaning, str):
-        said = " ".join(meaning.strip().lower().replace("-", " ").split())
-        meaning = next((k for k, v in _SYNONYMS.items() if said in v), meaning)
-    fb = compare_choice(meaning, "best linear estimate", OPTIONS_4, "meaning_4")
-    chosen = meaning.strip().lower() if fb.status == INCORRECT and isinstance(meaning, str) else ""
-    return _wrong({
-        "conditional mean": "meaning_4: not the conditional mean. Under the uniform noise, E(x_t | y_0, ..., "
-                            "y_t) is what the grid computes, and you have just seen the two differ. "
-                            "Conditioning a joint Gaussian: which estimator depends only on means and "
-                            "covariances, all that the Kalman filter uses?",
-        "neither": "meaning_4: the section conditioning a joint Gaussian names an estimator "
-                   "that depends only on means and covariances, which is all that the Kalman filter uses; "
-                   "with the same means and covariances, is its mean not that estimator?",
-    }[chosen]) if chosen in ("conditional mean", "neither") else fb
-
-
 def exercise_4(agree, meaning, grid_means_uniform=None) -> Feedback:
     """agree_4 (the step where grid and Kalman posterior means agree), meaning_4 and, when given,
     grid_means_uniform(a) against the library's grid filter at a = sqrt(1.5) and a = 1."""
+    def _meaning_feedback(meaning) -> Feedback:
+        if isinstance(meaning, str):
+            said = " ".join(meaning.strip().lower().replace("-", " ").split())
+            meaning = next((k for k, v in _SYNONYMS.items() if said in v), meaning)
+        fb = compare_choice(meaning, "best linear estimate", OPTIONS_4, "meaning_4")
+        chosen = meaning.strip().lower() if fb.status == INCORRECT and isinstance(meaning, str) else ""
+        return _wrong({
+            "conditional mean": "meaning_4: not the conditional mean. Under the uniform noise, E(x_t | y_0, ..., "
+                                "y_t) is what the grid computes, and you have just seen the two differ. "
+                                "Conditioning a joint Gaussian: which estimator depends only on means and "
+                                "covariances, all that the Kalman filter uses?",
+            "neither": "meaning_4: the section conditioning a joint Gaussian names an estimator "
+                       "that depends only on means and covariances, which is all that the Kalman filter uses; "
+                       "with the same means and covariances, is its mean not that estimator?",
+        }[chosen]) if chosen in ("conditional mean", "neither") else fb
+    def _step_feedback(agree) -> Feedback:
+        w = "agree_4"
+        if agree is None or agree is Ellipsis:
+            return _not_attempted(w)
+        agree = agree.item() if isinstance(agree, np.ndarray) and agree.size == 1 else agree
+        if isinstance(agree, (bool, np.bool_)) or not isinstance(agree, numbers.Real):
+            return _wrong(f"{w} must be a single time step, an int such as 3 (got {type(agree).__name__}).")
+        if not np.isfinite(agree) or agree != round(agree):
+            return _wrong(f"{w} must be a whole number, a time step t = 0, ..., {STEPS_1D - 1}.")
+        if not 0 <= (t := int(round(agree))) < STEPS_1D:
+            return _wrong(f"{w} = {t} is not one of the steps t = 0, ..., {STEPS_1D - 1}.")
+        gaps = np.abs(_uniform_grid_means(HALF_WIDTH_4) - kalman.kalman_filter(*_model_1d()).means[:, 0])
+        if list(np.flatnonzero(gaps < AGREE_TOL_4)) == [t]:
+            return Feedback(CORRECT, f"{w} is right.")
+        return _wrong(f"{w}: at t = {t} the grid posterior mean differs from the Kalman filter's by "
+                      f"{gaps[t]:.1e} m, far more than {AGREE_TOL_4:.0e}." + (
+                          " Did you compare the predictions (grid_res.priors) rather than the posteriors, "
+                          "or count the steps from 1? Steps are numbered from t = 0, y_0 measuring x_0."
+                          if t == 1 else " Print |grid mean - Kalman mean| for each of the 10 steps."))
     def means_compare(out, expected, what="the output") -> Feedback:
         fb = compare_array(out, expected, what)
         return fb if fb.status != INCORRECT else _wrong(
