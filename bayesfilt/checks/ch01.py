@@ -179,8 +179,7 @@ def exercise_3(answer) -> Feedback:
                                                                f"standard deviation {s:g} is expected."),
             (math.exp(log_ev), "is an evidence, not a log evidence: take the natural logarithm."),
             (log_ev / math.log(10), "uses log10; the log evidence is a natural logarithm."),
-            (math.log(evidences[-1]), "is the evidence of the last reading only, not the product over "
-                                      "the 40 steps."),
+            (math.log(evidences[-1]), "is the evidence of the last reading only, not the product over the 40 steps."),
             (log_ev / T_STEPS, "is the log evidence per step; give the sum over all 40 steps."),
             (-log_ev, "has the wrong sign: the log evidence is log p(y_0:39), not its negative."),
             (_position_run(s, "wrapped")[0], "measures the distance round the ring; use "
@@ -234,9 +233,8 @@ def exercise_4(answer) -> Feedback:
     if len(got) != len(seeds):
         return _wrong(f"{w} lists a seed more than once; give each seed once.")
     if got == ref:
-        return Feedback(CORRECT, f"{w} is right. Now plot the belief of one of these seeds "
-                                 f"(bf.plotting.belief_image) with the door map in mind: were the "
-                                 f"readings ambiguous, or is the filter wrong?")
+        return Feedback(CORRECT, f"{w} is right. Now plot the belief of one of these seeds (bf.plotting.belief_image) "
+                                 f"with the door map in mind: were the readings ambiguous, or is the filter wrong?")
     for kind, message in [
             ("complement", "lists the seeds where the belief within 2 m of the true cell is at least "
                            "0.5 (the robot was found); the question asks for those below 0.5."),
@@ -280,8 +278,7 @@ def exercise_5(answer) -> Feedback:
         (math.sqrt(var), "is a standard deviation; the question asks for the variance."),
         (m * float(p @ d ** 2), "is a second moment: the variance is E[d^2] - E[d]^2."),
         (var + mean ** 2, "is the second moment E[D^2]; the variance subtracts the squared mean."),
-        (m * float(p @ (d - 1.0) ** 2), "is the spread about the commanded move of 1 cell, not about the "
-                                        "mean step.")]]
+        (m * float(p @ (d - 1.0) ** 2), "is the spread about the commanded move of 1 cell, not about the mean step.")]]
     mistakes.append((lambda a: a.shape == (2,), lambda a: f"the mean in {w} is right; " + compare_number(
         float(a[1]), var, what=f"the variance in {w}", rtol=1e-4, atol=ATOL_HAND).message))
     return _named(answer, np.array([mean, var]), w, mistakes, atol=ATOL_HAND, rtol=1e-4, note=(

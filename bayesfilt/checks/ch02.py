@@ -121,8 +121,7 @@ def exercise_3(info) -> Feedback:
         (P + meas, f"{w}: you added the covariance P; precisions add, so use P^{{-1}}."),
         (P_inv + C.T @ R @ C, f"{w}: R is not inverted: the measurement contributes C^T R^{{-1}} C (a "
                               f"precise sensor, small R, adds much precision)."),
-        (P_inv - meas, f"{w}: a measurement adds precision, it cannot remove it: check the sign of "
-                       f"C^T R^{{-1}} C."),
+        (P_inv - meas, f"{w}: a measurement adds precision, it cannot remove it: check the sign of C^T R^{{-1}} C."),
     ])
 
 
@@ -260,8 +259,7 @@ def exercise_5(correlated_gain) -> Feedback:
     rng = np.random.default_rng(50505)
     cases = [(P_EX, C_EX, R_EX, G_EX, D_5), _correlated_case(rng, 3, 2, 2),
              (P_EX, C_EX, R_EX, G_EX, np.zeros((1, 1))), _correlated_case(rng, 4, 1, 3)]
-    hint = _shapes_hint("P (n, n), C (m, n), R (m, m), G (n, q), D (q, m); Sigma_xy is (n, m) and "
-                        "Sigma_yy is (m, m)")
+    hint = _shapes_hint("P (n, n), C (m, n), R (m, m), G (n, q), D (q, m); Sigma_xy is (n, m) and Sigma_yy is (m, m)")
     return compare_function(_hinted(correlated_gain, hint), _correlated_reference,
                             [tuple(map(np.array, case)) for case in cases], what="correlated_gain",
                             mistakes=_CORRELATED_MISTAKES)

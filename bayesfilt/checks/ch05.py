@@ -262,8 +262,7 @@ def exercise_4(answer) -> Feedback:
                                                 "then the optimal proposal (t = 39)."),
         (chosen[0] != boot and chosen[0] == max(R_VALUES), "[0]: a noisier sensor does not make the bootstrap "
          "degenerate faster: the smaller R, the fewer blind draws land where N(y_t; x_t, R) is large (t = 5)."),
-        (chosen[0] != boot, f"[0] is not the R of the bootstrap's smallest mean ESS at t = 5 (index 5). "
-                            f"{average}."),
+        (chosen[0] != boot, f"[0] is not the R of the bootstrap's smallest mean ESS at t = 5 (index 5). {average}."),
         (chosen[1] == boot, f"[0] is right; {w}[1] ranks the R like the bootstrap. At t = 39 (index 39 or -1, not "
          f"5) the increment p(y_t | x_(t-1)^(i)) does not depend on the new draw, only on the particle's past."),
         (True, f"[0] is right; {w}[1] is not the R of the optimal proposal's smallest mean ESS at t = 39 "

@@ -126,8 +126,7 @@ def exercise_1(my_systematic) -> Feedback:
              0.0), (3.0 * six, 0.4), (np.array([0.3, 0.2, 0.1]), 0.9), (np.array([1.0]), 0.7),
              (w50, float(rng.random())), (w1000 / w1000.sum(), float(rng.random()))]
     if my_systematic is not None and my_systematic is not Ellipsis and not callable(my_systematic):
-        return _wrong(f"{what} must be a function (def my_systematic(w, u): ...), got "
-                      f"{type(my_systematic).__name__}.")
+        return _wrong(f"{what} must be a function (def my_systematic(w, u): ...), got {type(my_systematic).__name__}.")
 
     def judge(out, s: str, args) -> Feedback:
         (w, u), n = args, len(args[0])
@@ -281,8 +280,7 @@ def exercise_3(answer) -> Feedback:
         return _wrong(f"{what} must be a pair (resamplings, theta_worst): the array of three mean counts, then "
                       f"the threshold with the largest RMSE.")
     if bad is not None or (np.ndim(pair[0]) == 0 and np.size(pair[1]) == 3):
-        return bad or _wrong(f"{what} is in the wrong order: first the array of three mean counts, then "
-                             f"theta_worst.")
+        return bad or _wrong(f"{what} is in the wrong order: first the array of three mean counts, then theta_worst.")
     label = f"{what}[0], the mean number of resamplings per record,"
     a, bad = _as_numbers(pair[0], label)
     if bad is not None or a.shape != (3,):
