@@ -1,8 +1,7 @@
 r"""Exercises that answer back: checks that compare a student's answer with the library's.
 
-Every chapter ends with exercises. Each has an *answer cell*, where the
-student writes a number, an array or a small function, and a *check cell*
-that calls one function of this package::
+Every chapter ends with exercises. Each has an *answer cell*, where the student writes a number, an
+array or a small function, and a *check cell* that calls one function of this package::
 
     import bayesfilt as bf
     gain_2 = ...                                      # the student's answer
@@ -10,24 +9,22 @@ that calls one function of this package::
 
 A check never prints the solution. It says one of three things:
 
-* **not attempted yet** - the answer is still ``None`` (or the function
-  still raises ``NotImplementedError``), so "Run All" runs the whole chapter;
+* **not attempted yet** - the answer is still ``None`` (or the function still raises
+  ``NotImplementedError``), so "Run All" runs the whole chapter;
 * **correct**;
-* **not yet** - and *what* differs, diagnosed the way a tutor would: a wrong
-  shape (with the expected one), a transposed matrix, a result off by a
-  factor (an unnormalised belief, a missing normalising constant), the wrong
-  sign (an innovation written :math:`C\hat x - y`), a covariance that is not
-  symmetric, a function that fails (with the input that broke it).
+* **not yet** - and *what* differs, diagnosed the way a tutor would: a wrong shape (with the
+  expected one), a transposed matrix, a result off by a factor (an unnormalised belief, a missing
+  normalising constant), the wrong sign (an innovation written :math:`C\hat x - y`), a covariance
+  that is not symmetric, a function that fails (with the input that broke it).
 
-The references are computed by the library, never stored in the notebook, so a
-student edition (``tools/make_student_edition.py``) hands out the check cells as
-they are. The chapter modules ``bf.checks.ch01`` ... ``bf.checks.ch06`` hold one
-check per exercise, built on the comparisons here (:func:`compare_array`,
-:func:`compare_number`, :func:`compare_function`, :func:`compare_choice`) and run
-through one engine (:func:`exercise`): a student's function runs under a time limit
-(:data:`TIME_LIMIT`), an argument or a chapter array it changes in place ends the
-check with a "Not yet", and a check never raises, except under nbgrader, where a
-check that is not correct fails its cell.
+The references are computed by the library, never stored in the notebook, so a student edition
+(``tools/make_student_edition.py``) hands out the check cells as they are. The chapter modules
+``bf.checks.ch01`` ... ``bf.checks.ch06`` hold one check per exercise, built on the comparisons here
+(:func:`compare_array`, :func:`compare_number`, :func:`compare_function`, :func:`compare_choice`)
+and run through one engine (:func:`exercise`): a student's function runs under a time limit
+(:data:`TIME_LIMIT`), an argument or a chapter array it changes in place ends the check with a "Not
+yet", and a check never raises, except under nbgrader, where a check that is not correct fails its
+cell.
 """
 
 from __future__ import annotations

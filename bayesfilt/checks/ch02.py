@@ -77,9 +77,8 @@ def exercise_1(excess) -> Feedback:
 _GAIN_MISTAKES = [
     (lambda P, C, R: _gain(P, C, R).T, "the gain is transposed: K = P C^T S^{-1} has one row per state "
      "component and one column per measurement component, shape (n, m), not that of S^{-1} C P."),
-    (lambda P, C, R: _gain(P, C, R, C @ P @ C.T), "S is computed without R: S = C P C^T + R, the "
-     "predicted uncertainty of the measurement plus the sensor noise (without R the filter trusts the "
-     "sensor as if it were perfect)."),
+    (lambda P, C, R: _gain(P, C, R, C @ P @ C.T), "S is computed without R: S = C P C^T + R, the predicted uncertainty "
+     "of the measurement plus the sensor noise (without R the filter trusts the sensor as if it were perfect)."),
     (lambda P, C, R: _gain(P, C, R, C @ P @ C.T - R), "S is computed as C P C^T - R: the sensor noise "
      "adds uncertainty, S = C P C^T + R (a minus sign in S, not a constant factor)."),
     (lambda P, C, R: P @ C.T @ (C @ P @ C.T + R), "you multiply P C^T by S instead of by its inverse."),
