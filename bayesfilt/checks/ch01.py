@@ -1,4 +1,5 @@
-"""Checks of chapter 01's exercises (the Bayes recursion on a grid; references from bf.bayes), one per line::
+"""Checks of chapter 01's exercises (the Bayes recursion on a grid; references from bf.bayes).
+One line per exercise::
 
     exercise_1(update_by_hand): Bayes' rule, prior x likelihood over the evidence, on five inputs;
     exercise_2(answer_2): bel(open) after each push and "closed" reading of Thrun's door;

@@ -1,4 +1,5 @@
-"""Checks of chapter 02's exercises (the Kalman filter derived; references by bf.kalman, bf.gaussian, bf.bayes)::
+"""Checks of chapter 02's exercises (the Kalman filter derived; references by bf.kalman, bf.gaussian, bf.bayes).
+One line per exercise::
 
     exercise_1(excess_1): P+(K) - P+(K*), the covariance a suboptimal gain adds;
     exercise_2(kalman_gain): the gain K = P C^T S^{-1}, on five inputs;

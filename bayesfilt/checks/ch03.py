@@ -1,4 +1,5 @@
-"""Checks of chapter 03's exercises (the damped particle; references by bf.models, bf.kalman, bf.gaussian)::
+"""Checks of chapter 03's exercises (the damped particle; references by bf.models, bf.kalman, bf.gaussian).
+One line per exercise::
 
     exercise_1(stabilising_1, std_1, radius_1): the steady state of damped_particle(damping=1.0);
     exercise_2(rank_2, detectable_2, var_2): observability and detectability with C = [1, 0, 0, 0];

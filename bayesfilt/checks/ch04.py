@@ -1,4 +1,5 @@
-"""Checks of chapter 04's exercises (the EKF; references by bf.models, bf.ekf, bf.kalman, bf.gaussian)::
+"""Checks of chapter 04's exercises (the EKF; references by bf.models, bf.ekf, bf.kalman, bf.gaussian).
+One line per exercise::
 
     exercise_1(range_bearing_jacobian): the range-bearing Jacobian H, by hand;
     exercise_2(converted_cov, nees_2): the converted covariance J R J^T, and the NEES of a filter started from it;

@@ -1,4 +1,5 @@
-"""Checks of chapter 05's exercises (references by bf.particle, bf.models), one per line::
+"""Checks of chapter 05's exercises (references by bf.particle, bf.models).
+One line per exercise::
 
     exercise_1(my_log_normalize): normalised log-weights and their log sum, without under- or overflow;
     exercise_2(answer_2): three effective sample sizes;

@@ -1,4 +1,5 @@
-r"""Checks of chapter 06's exercises (resampling, the particle filter; references by the library)::
+r"""Checks of chapter 06's exercises (resampling, the particle filter; references by the library).
+One line per exercise::
 
     exercise_1(my_systematic): systematic resampling's ancestors a_j of the comb p_j = (j + u)/N;
     exercise_2(answer_2): E[N^(2)] and Var(N^(2)) under multinomial, systematic and residual resampling;
