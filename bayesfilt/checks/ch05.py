@@ -47,70 +47,68 @@ def _close(a, e) -> bool:
 
 
 # Exercise 1: the output's form, then log_sum, then log_W, each against its named mistakes ------------------
-def _pair_1(out, expected, what: str = "the output") -> Feedback:
-    lw, ref_W, ref = expected                             # the input, the library's pair
-    if out is None:
-        return _not_attempted(what)
-    if isinstance(out, np.ndarray) and out.shape == lw.shape:
-        return _wrong(f"{what}: one array; return the pair (log_W, log_sum), as bf.particle.log_normalize does.")
-    if not isinstance(out, (tuple, list)) or len(out) != 2:
-        n = f" of length {len(out)}" if isinstance(out, (tuple, list)) else ""
-        return _wrong(f"{what}: my_log_normalize must return a pair (log_W, log_sum), got {type(out).__name__}{n}.")
-    if np.ndim(out[0]) == 0 and np.ndim(out[1]) == 1 and np.size(out[1]) == lw.size > 1:
-        return _wrong(f"{what}: the pair is in the wrong order: first the array log_W, then the number log_sum.")
-    log_W, s = out
-    s = s.item() if isinstance(s, np.ndarray) and s.size == 1 else s
-    if isinstance(s, (bool, np.bool_)) or not isinstance(s, numbers.Real):
-        return _wrong(f"{what}: log_sum must be one number, got {type(s).__name__}.")
-    if math.isnan(s := float(s)):
-        return _wrong(f"{what}: log_sum is NaN: exp(l) overflowed before the log. {SHIFT}")
-    try:
-        a = np.asarray(log_W, dtype=float)
-    except Exception:  # noqa: BLE001 - an answer numpy cannot read is feedback
-        return _wrong(f"{what}: log_W must be an array of numbers, got {type(log_W).__name__}.")
-    fin, m, zero = lw[np.isfinite(lw)], float(np.max(lw)), np.isneginf(ref_W)
-    if not _close(s, ref):
-        flow = "underflowed to 0" if s < 0 else "overflowed"
-        return _first(f"{what}: ", [(math.isinf(s), f"log_sum is {s}: exp(l) {flow} before the log. {SHIFT}")]
-                      + [(_close(s, v), msg) for v, msg in [
-            (ref - m, f"log_sum is log sum_j e^(l_j - m): add the largest log-weight m back ({LSE})."),
-            (ref - math.log(lw.size), "log_sum is the log of the mean weight, not of the sum."),
-            (ref - math.log(fin.size) if fin.size < lw.size else math.nan,
-             "log_sum is the log of the mean over the nonzero weights, not of the sum."),
-            (math.exp(ref) if ref < 700 else math.nan, "log_sum is the sum of the weights, not its log."),
-            (ref / math.log(10), "log_sum uses log10; log-weights are natural logarithms (np.log)."),
-            (m, "log_sum is only the largest log-weight m; add log sum_j e^(l_j - m)."),
-            (np.sum(fin), "log_sum is the sum of the log-weights (the log of their product)."),
-            (-ref, "log_sum has the wrong sign.")]]
-                      + [(True, f"log_sum is too {'large' if s > ref else 'small'}: {SHIFT}")])
-    if _close(a, ref_W):
-        return Feedback(CORRECT, "")
-    if a.shape != ref_W.shape:
-        return _wrong(f"{what}: log_W has shape {a.shape}; it must have the shape of log_w, {ref_W.shape}"
-                      + (": one normalised log-weight per particle." if a.size == 1 else "."))
-    d, bad = a[~zero] - ref_W[~zero], ~np.isclose(a, ref_W, rtol=TOL, atol=TOL) & ~zero
-    live, first = ~np.isneginf(lw), "Subtract the largest log-weight before np.exp."
-    return _first(f"{what}: ", [(_close(a, v) and not _close(v, ref_W), msg) for v, msg in [
-        (np.exp(ref_W), f"log_W holds the normalised weights W^(i) themselves; return {NORM}."),
-        (lw - m, "log_W is only shifted by m, not normalised: subtract log sum_j e^(l_j), not m."),
-        (s - lw, f"log_W has the wrong sign: {NORM}."),
-        (lw / s if s else np.nan, f"log_W divides by log_sum; in logs it is a subtraction: {NORM}."),
-        (ref_W / math.log(10), "log_W uses log10; use natural logarithms throughout."),
-        (np.where(live, -math.log(max(int(live.sum()), 1)), -np.inf),
-         "log_W gives every nonzero particle the same share: weigh each by e^(l^(i)).")]] + [
-        (np.isnan(a).any(), f"log_W contains NaN: exp(l) underflowed (0/0) or overflowed. {first}"),
-        (np.isposinf(a).any(), f"log_W contains +inf: exp(l) overflowed. {first}"),
-        (not np.isneginf(a[zero]).all(), "a particle with log-weight -inf (weight 0) must keep log W = -inf; "
-                                         f"yours gives it {np.array2string(a[zero][:3])}."),
-        (np.isneginf(a[~zero]).any(), "log_W is -inf for a particle whose weight is not zero: exp(l) "
-                                      f"underflowed before the log. Stay in logs: {NORM}."),
-        (np.allclose(d, d[0], rtol=0, atol=TOL), f"log_W is off by the same constant in every entry: not "
-                                                  f"normalised ({NORM})."),
-        (True, f"log_W differs from the normalised log-weights at {int(bad.sum())} of {a.size} entries "
-               f"(the first at index {int(np.argmax(bad))}).")])
-
-
 def exercise_1(my_log_normalize) -> Feedback:
+    def _pair_1(out, expected, what: str = "the output") -> Feedback:
+        lw, ref_W, ref = expected                             # the input, the library's pair
+        if out is None:
+            return _not_attempted(what)
+        if isinstance(out, np.ndarray) and out.shape == lw.shape:
+            return _wrong(f"{what}: one array; return the pair (log_W, log_sum), as bf.particle.log_normalize does.")
+        if not isinstance(out, (tuple, list)) or len(out) != 2:
+            n = f" of length {len(out)}" if isinstance(out, (tuple, list)) else ""
+            return _wrong(f"{what}: my_log_normalize must return a pair (log_W, log_sum), got {type(out).__name__}{n}.")
+        if np.ndim(out[0]) == 0 and np.ndim(out[1]) == 1 and np.size(out[1]) == lw.size > 1:
+            return _wrong(f"{what}: the pair is in the wrong order: first the array log_W, then the number log_sum.")
+        log_W, s = out
+        s = s.item() if isinstance(s, np.ndarray) and s.size == 1 else s
+        if isinstance(s, (bool, np.bool_)) or not isinstance(s, numbers.Real):
+            return _wrong(f"{what}: log_sum must be one number, got {type(s).__name__}.")
+        if math.isnan(s := float(s)):
+            return _wrong(f"{what}: log_sum is NaN: exp(l) overflowed before the log. {SHIFT}")
+        try:
+            a = np.asarray(log_W, dtype=float)
+        except Exception:  # noqa: BLE001 - an answer numpy cannot read is feedback
+            return _wrong(f"{what}: log_W must be an array of numbers, got {type(log_W).__name__}.")
+        fin, m, zero = lw[np.isfinite(lw)], float(np.max(lw)), np.isneginf(ref_W)
+        if not _close(s, ref):
+            flow = "underflowed to 0" if s < 0 else "overflowed"
+            return _first(f"{what}: ", [(math.isinf(s), f"log_sum is {s}: exp(l) {flow} before the log. {SHIFT}")]
+                          + [(_close(s, v), msg) for v, msg in [
+                (ref - m, f"log_sum is log sum_j e^(l_j - m): add the largest log-weight m back ({LSE})."),
+                (ref - math.log(lw.size), "log_sum is the log of the mean weight, not of the sum."),
+                (ref - math.log(fin.size) if fin.size < lw.size else math.nan,
+                 "log_sum is the log of the mean over the nonzero weights, not of the sum."),
+                (math.exp(ref) if ref < 700 else math.nan, "log_sum is the sum of the weights, not its log."),
+                (ref / math.log(10), "log_sum uses log10; log-weights are natural logarithms (np.log)."),
+                (m, "log_sum is only the largest log-weight m; add log sum_j e^(l_j - m)."),
+                (np.sum(fin), "log_sum is the sum of the log-weights (the log of their product)."),
+                (-ref, "log_sum has the wrong sign.")]]
+                          + [(True, f"log_sum is too {'large' if s > ref else 'small'}: {SHIFT}")])
+        if _close(a, ref_W):
+            return Feedback(CORRECT, "")
+        if a.shape != ref_W.shape:
+            return _wrong(f"{what}: log_W has shape {a.shape}; it must have the shape of log_w, {ref_W.shape}"
+                          + (": one normalised log-weight per particle." if a.size == 1 else "."))
+        d, bad = a[~zero] - ref_W[~zero], ~np.isclose(a, ref_W, rtol=TOL, atol=TOL) & ~zero
+        live, first = ~np.isneginf(lw), "Subtract the largest log-weight before np.exp."
+        return _first(f"{what}: ", [(_close(a, v) and not _close(v, ref_W), msg) for v, msg in [
+            (np.exp(ref_W), f"log_W holds the normalised weights W^(i) themselves; return {NORM}."),
+            (lw - m, "log_W is only shifted by m, not normalised: subtract log sum_j e^(l_j), not m."),
+            (s - lw, f"log_W has the wrong sign: {NORM}."),
+            (lw / s if s else np.nan, f"log_W divides by log_sum; in logs it is a subtraction: {NORM}."),
+            (ref_W / math.log(10), "log_W uses log10; use natural logarithms throughout."),
+            (np.where(live, -math.log(max(int(live.sum()), 1)), -np.inf),
+             "log_W gives every nonzero particle the same share: weigh each by e^(l^(i)).")]] + [
+            (np.isnan(a).any(), f"log_W contains NaN: exp(l) underflowed (0/0) or overflowed. {first}"),
+            (np.isposinf(a).any(), f"log_W contains +inf: exp(l) overflowed. {first}"),
+            (not np.isneginf(a[zero]).all(), "a particle with log-weight -inf (weight 0) must keep log W = -inf; "
+                                             f"yours gives it {np.array2string(a[zero][:3])}."),
+            (np.isneginf(a[~zero]).any(), "log_W is -inf for a particle whose weight is not zero: exp(l) "
+                                          f"underflowed before the log. Stay in logs: {NORM}."),
+            (np.allclose(d, d[0], rtol=0, atol=TOL), f"log_W is off by the same constant in every entry: not "
+                                                      f"normalised ({NORM})."),
+            (True, f"log_W differs from the normalised log-weights at {int(bad.sum())} of {a.size} entries "
+                   f"(the first at index {int(np.argmax(bad))}).")])
     far = np.random.default_rng(505).normal(-5000.0, 20.0, size=50)   # with two zero weights;
     far[[7, 30]] = -np.inf                                             # last, a spread of 800
     cases = [(np.array(v, dtype=float),) for v in (LOG_W, [0.0] * 3, [800.0, 799.5, 795.0], [3.7], far,

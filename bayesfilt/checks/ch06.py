@@ -66,60 +66,58 @@ def _pair(answer, what: str, first: str, second: str):
 
 
 # --- exercise 1: systematic resampling by hand ------------------------------------------------------------
-def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | None:
-    """What is wrong with the ancestors ``a`` (of the right length) on input ``s``; None if nothing."""
-    n, total = len(w), float(np.sum(w))
-    C, p, ref = np.cumsum(w) / total, (np.arange(n) + u) / n, resampling.from_uniforms(w, np.full(n, u))
-    idx = np.clip(np.round(a), 0, n - 1).astype(int)
-    whole, ascending = np.all(a == np.round(a)), np.all(np.diff(a) >= 0)
-    in_range = a.min() >= 0 and a.max() <= n - 1
-    lower = np.r_[0.0, C][idx]                               # C_(a_j - 1), with C_(-1) = 0
-    if whole and in_range and ascending and np.all(w[idx] > 0) and np.all(p >= lower - TOL_INDEX) \
-            and np.all(p < C[idx] + TOL_INDEX):              # the first i with p_j < Ω^(i), up to round-off
-        return None
-    counts, many, find = np.bincount(ref, minlength=n), n > 1, functools.partial(np.searchsorted, C, side="right")
-    seen = lambda wrong: _matches(a, wrong, 0.0, 1e-9)  # noqa: E731 - a is that mistake's output
-    bad, j = int(a.max()) if a.max() > n - 1 else int(a.min()), int(np.argmax(a != ref))
-    mistakes = [  # (is the mistake seen, its message), in the order they are tried
-        (seen(counts), f" returns offspring counts N_i on {s}. The filter needs the ancestor indices a_j, one per "
-                       f"new particle (x_new = x[a]): np.repeat(np.arange(N), counts)."),
-        (seen(np.cumsum(counts)), f" returns cumulative offspring counts on {s}, not the ancestor of each "
-                                  f"point: {FIRST}."),
-        (seen(p), f" returns the points p_j = (j + u)/N themselves on {s}; return, for each point, the index "
-                  f"of the piece [Ω^(i-1), Ω^(i)) it falls in."),
-        (seen(ref + 1), f"'s indices are shifted by one on {s}: each is one more than the ancestor (a leading 0 "
-                        f"in the cumulative sums?). The code numbers particles from 0 (the maths from 1); {FIRST}."),
-        (seen(ref - 1), f"'s indices are shifted by one on {s}: each is one less than the ancestor; {FIRST} "
-                        f"(the code numbers particles from 0)."),
-        (many and not math.isclose(total, 1.0) and seen(np.searchsorted(np.cumsum(w), p, "right")),
-         f" does not normalise the weights: on {s} they sum to {total:.4g}, so the comb in [0, 1) covers the "
-         f"wrong part of the staircase. Divide by the sum first."),
-        (many and seen(np.searchsorted(C, p, side="left")), f" picks a particle of weight 0 on {s}: a point "
-         f"equal to an Ω^(i) belongs to the next piece ({FIRST}, strictly), so use side='right', not 'left'."),
-        (many and seen(find(np.arange(n) / n + u)), f" uses the points j/N + u on {s}; the comb is "
-         f"p_j = (j + u)/N: u shifts each tooth by less than 1/N, so the points stay in [0, 1)."),
-        (many and seen(find((np.arange(1, n + 1) + u) / n)),
-         f" uses p_j = (j + u)/N for j = 1, ..., N on {s}; j runs from 0 to N - 1."),
-        (many and u > 0 and seen(find(np.arange(n) / n)), f" ignores u on {s}: the points are p_j = (j + u)/N, "
-                                                          f"not j/N."),
-        (not whole, f" returns numbers that are not whole on {s}; ancestor indices are integers 0, ..., N - 1."),
-        (np.array_equal(np.sort(a), ref), f" returns the right ancestors in the wrong order on {s}: like the "
-                                          f"points p_j, they must be sorted ascending."),
-        (not in_range, f" returns the index {bad} on {s}, out of range: with N = {n} particles the ancestors "
-                       f"are 0, ..., {n - 1}." + (" Is the last cumulative weight exactly 1? Every point "
-                                                  "p_j < 1 must find a piece." if bad >= n else "")),
-        (np.any(w[idx] <= 0), f" picks particle {idx[np.argmin(w[idx])]} on {s}, whose weight is 0: its piece "
-                              f"[Ω^(i-1), Ω^(i)) is empty. {FIRST} (strictly)."),
-        (not ascending, f"'s indices on {s} are not sorted ascending, as the points are."),
-        (True, f" gives a wrong ancestor on {s}: the first at j = {j}, the point p_j = {p[j]:.4f}, put in "
-               f"particle {idx[j]}'s piece [Ω^(i-1), Ω^(i)). Stack the normalised weights (Ω^(i) = W^(1) + ... + "
-               f"W^(i)) and take the first i with p_j < Ω^(i)."),
-    ]
-    return _wrong("my_systematic" + next(message for mistake, message in mistakes if mistake))
-
-
 def exercise_1(my_systematic) -> Feedback:
     """``my_systematic(w, u)`` against ``bf.resampling.from_uniforms(w, np.full(len(w), u))``."""
+    def _diagnose_1(a: np.ndarray, w: np.ndarray, u: float, s: str) -> Feedback | None:
+        """What is wrong with the ancestors ``a`` (of the right length) on input ``s``; None if nothing."""
+        n, total = len(w), float(np.sum(w))
+        C, p, ref = np.cumsum(w) / total, (np.arange(n) + u) / n, resampling.from_uniforms(w, np.full(n, u))
+        idx = np.clip(np.round(a), 0, n - 1).astype(int)
+        whole, ascending = np.all(a == np.round(a)), np.all(np.diff(a) >= 0)
+        in_range = a.min() >= 0 and a.max() <= n - 1
+        lower = np.r_[0.0, C][idx]                               # C_(a_j - 1), with C_(-1) = 0
+        if whole and in_range and ascending and np.all(w[idx] > 0) and np.all(p >= lower - TOL_INDEX) \
+                and np.all(p < C[idx] + TOL_INDEX):              # the first i with p_j < Ω^(i), up to round-off
+            return None
+        counts, many, find = np.bincount(ref, minlength=n), n > 1, functools.partial(np.searchsorted, C, side="right")
+        seen = lambda wrong: _matches(a, wrong, 0.0, 1e-9)  # noqa: E731 - a is that mistake's output
+        bad, j = int(a.max()) if a.max() > n - 1 else int(a.min()), int(np.argmax(a != ref))
+        mistakes = [  # (is the mistake seen, its message), in the order they are tried
+            (seen(counts), f" returns offspring counts N_i on {s}. The filter needs the ancestor indices a_j, one per "
+                           f"new particle (x_new = x[a]): np.repeat(np.arange(N), counts)."),
+            (seen(np.cumsum(counts)), f" returns cumulative offspring counts on {s}, not the ancestor of each "
+                                      f"point: {FIRST}."),
+            (seen(p), f" returns the points p_j = (j + u)/N themselves on {s}; return, for each point, the index "
+                      f"of the piece [Ω^(i-1), Ω^(i)) it falls in."),
+            (seen(ref + 1), f"'s indices are shifted by one on {s}: each is one more than the ancestor (a leading 0 in "
+                            f"the cumulative sums?). The code numbers particles from 0 (the maths from 1); {FIRST}."),
+            (seen(ref - 1), f"'s indices are shifted by one on {s}: each is one less than the ancestor; {FIRST} "
+                            f"(the code numbers particles from 0)."),
+            (many and not math.isclose(total, 1.0) and seen(np.searchsorted(np.cumsum(w), p, "right")),
+             f" does not normalise the weights: on {s} they sum to {total:.4g}, so the comb in [0, 1) covers the "
+             f"wrong part of the staircase. Divide by the sum first."),
+            (many and seen(np.searchsorted(C, p, side="left")), f" picks a particle of weight 0 on {s}: a point "
+             f"equal to an Ω^(i) belongs to the next piece ({FIRST}, strictly), so use side='right', not 'left'."),
+            (many and seen(find(np.arange(n) / n + u)), f" uses the points j/N + u on {s}; the comb is "
+             f"p_j = (j + u)/N: u shifts each tooth by less than 1/N, so the points stay in [0, 1)."),
+            (many and seen(find((np.arange(1, n + 1) + u) / n)),
+             f" uses p_j = (j + u)/N for j = 1, ..., N on {s}; j runs from 0 to N - 1."),
+            (many and u > 0 and seen(find(np.arange(n) / n)), f" ignores u on {s}: the points are p_j = (j + u)/N, "
+                                                              f"not j/N."),
+            (not whole, f" returns numbers that are not whole on {s}; ancestor indices are integers 0, ..., N - 1."),
+            (np.array_equal(np.sort(a), ref), f" returns the right ancestors in the wrong order on {s}: like the "
+                                              f"points p_j, they must be sorted ascending."),
+            (not in_range, f" returns the index {bad} on {s}, out of range: with N = {n} particles the ancestors "
+                           f"are 0, ..., {n - 1}." + (" Is the last cumulative weight exactly 1? Every point "
+                                                      "p_j < 1 must find a piece." if bad >= n else "")),
+            (np.any(w[idx] <= 0), f" picks particle {idx[np.argmin(w[idx])]} on {s}, whose weight is 0: its piece "
+                                  f"[Ω^(i-1), Ω^(i)) is empty. {FIRST} (strictly)."),
+            (not ascending, f"'s indices on {s} are not sorted ascending, as the points are."),
+            (True, f" gives a wrong ancestor on {s}: the first at j = {j}, the point p_j = {p[j]:.4f}, put in "
+                   f"particle {idx[j]}'s piece [Ω^(i-1), Ω^(i)). Stack the normalised weights (Ω^(i) = W^(1) + ... + "
+                   f"W^(i)) and take the first i with p_j < Ω^(i)."),
+        ]
+        return _wrong("my_systematic" + next(message for mistake, message in mistakes if mistake))
     rng, six, what, floats = np.random.default_rng(606), np.array(SIX_WEIGHTS), "my_systematic", []
     w50, w1000 = rng.exponential(size=50), rng.exponential(size=1000) ** 3
     w50[[3, 17, 18]] = 0.0                                    # unnormalised, with three zero weights
@@ -182,53 +180,51 @@ def _law_2(W: np.ndarray, M: int, i: int) -> np.ndarray:
                      f * (1 - f / R) if R > 0 else 0.0])
 
 
-def _variants_2() -> list[list[tuple[float, str]]]:
-    """For each entry of answer_2, (a plausible wrong value, what it means)."""
-    W = np.array(WEIGHTS_2) / np.sum(WEIGHTS_2)
-    M, w, other = M_2, W[PARTICLE_2], _law_2(W, M_2, 0)          # particle 0: a numbering mix-up
-    MW, R, mw, res = M * w, M - np.floor(M * W).sum(), "M W^(2) (1 - W^(2))", "M̃ = M - sum_i floor(M W^(i))"
-    f, std = MW % 1.0, "is a standard deviation; the question asks for the variance (its square)."
-    zero = ("is the value for particle 1 (weight 0.42): the code's index 0, since it is numbered from 0; "
-            "the exercise's particle 2 is the one with weight W^(2) = 0.28.")
-    whole = "is a whole number; an expected count need not be one: unbiasedness says E[N^(i)] = M W^(i) exactly."
-    return [
-        [(w, "is the probability W^(2) that one draw picks particle 1; over M = 10 draws the expected number of "
-             "copies is M W^(2)."), (MW // 1, whole), (MW // 1 + 1, whole),
-         (M / len(W), "is M / N, the expected count of equal weights; particle 1 gets M W^(2)."), (other[0], zero)],
-        [(MW, f"is M W^(2) (a Poisson variance); the multinomial count is binomial, Var(N^(2)) = {mw}."),
-         (w * (1 - w), f"is the variance W^(2) (1 - W^(2)) of one draw's indicator; the M independent draws add "
-                       f"up: {mw}."),
-         (MW * (1 - MW), f"puts M W^(2) inside the bracket; the formula is {mw}, with the weight W^(2) in "
-                         f"(1 - W^(2))."),
-         (M * M * w * (1 - w), f"has M^2; the variance of a sum of M independent indicators is M times the "
-                               f"variance of one: {mw}."), (math.sqrt(M * w * (1 - w)), std), (other[1], zero)],
-        [(M * w * (1 - w), "is the multinomial variance; the systematic comb puts the teeth 1/M apart, so N^(2) is "
-                           "always floor(M W^(2)) or ceil(M W^(2)): Var = φ (1 - φ) with φ = M W^(2) - floor(M "
-                           "W^(2))."),
-         (f, "is φ = M W^(2) - floor(M W^(2)), the probability that N^(2) takes the larger value; the variance of "
-             "floor(M W^(2)) + Bernoulli(φ) is φ (1 - φ)."),
-         (1 - f, "is 1 - φ, the probability of the smaller value; the variance of floor(M W^(2)) + Bernoulli(φ) is "
-                 "φ (1 - φ), with φ = M W^(2) - floor(M W^(2))."),
-         (0.0, "would mean that N^(2) is always the same number, which happens only when M W^(2) is a whole number; "
-               "here it is not, so N^(2) takes two values."),
-         (0.25, "is 1/4, the variance of a fair coin; here the larger value has probability "
-                "φ = M W^(2) - floor(M W^(2)), and Var = φ (1 - φ)."), (math.sqrt(f * (1 - f)), std)],
-        [(f * (1 - f), f"is φ (1 - φ), the systematic variance (or the residual one with M̃ = 1). The residual "
-                       f"scheme draws {res} points multinomially from the residual weights φ^(i) / M̃: "
-                       f"Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃). Count M̃ again."),
-         (M * w * (1 - w), f"is the multinomial variance over all M draws; in the residual scheme the "
-                           f"floor(M W^(i)) copies are fixed and only {res} draws are random: Var = φ (1 - φ/M̃)."),
-         (f * (1 - f / M), f"divides φ by M; the residual weights φ^(i) are normalised by their sum {res}, not by "
-                           f"M: Var = φ (1 - φ/M̃)."),
-         (R * f * (1 - f / R), "has an extra factor M̃: M̃ draws with probability φ/M̃ each give "
-                               "Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃)."), (math.sqrt(f * (1 - f / R)), std),
-         (other[3], zero)] + [(f * (1 - f / r), f"uses the wrong number of residual draws M̃: {res}, with the "
-                                                f"floors of all four particles.") for r in range(2, M + 1)
-                              if r != R]]
-
-
 def exercise_2(answer) -> Feedback:
     """``answer_2 = np.array([E N^(2), Var multinomial, Var systematic, Var residual])``, to 3 decimals."""
+    def _variants_2() -> list[list[tuple[float, str]]]:
+        """For each entry of answer_2, (a plausible wrong value, what it means)."""
+        W = np.array(WEIGHTS_2) / np.sum(WEIGHTS_2)
+        M, w, other = M_2, W[PARTICLE_2], _law_2(W, M_2, 0)          # particle 0: a numbering mix-up
+        MW, R, mw, res = M * w, M - np.floor(M * W).sum(), "M W^(2) (1 - W^(2))", "M̃ = M - sum_i floor(M W^(i))"
+        f, std = MW % 1.0, "is a standard deviation; the question asks for the variance (its square)."
+        zero = ("is the value for particle 1 (weight 0.42): the code's index 0, since it is numbered from 0; "
+                "the exercise's particle 2 is the one with weight W^(2) = 0.28.")
+        whole = "is a whole number; an expected count need not be one: unbiasedness says E[N^(i)] = M W^(i) exactly."
+        return [
+            [(w, "is the probability W^(2) that one draw picks particle 1; over M = 10 draws the expected number of "
+                 "copies is M W^(2)."), (MW // 1, whole), (MW // 1 + 1, whole),
+             (M / len(W), "is M / N, the expected count of equal weights; particle 1 gets M W^(2)."), (other[0], zero)],
+            [(MW, f"is M W^(2) (a Poisson variance); the multinomial count is binomial, Var(N^(2)) = {mw}."),
+             (w * (1 - w), f"is the variance W^(2) (1 - W^(2)) of one draw's indicator; the M independent draws add "
+                           f"up: {mw}."),
+             (MW * (1 - MW), f"puts M W^(2) inside the bracket; the formula is {mw}, with the weight W^(2) in "
+                             f"(1 - W^(2))."),
+             (M * M * w * (1 - w), f"has M^2; the variance of a sum of M independent indicators is M times the "
+                                   f"variance of one: {mw}."), (math.sqrt(M * w * (1 - w)), std), (other[1], zero)],
+            [(M * w * (1 - w), "is the multinomial variance; the systematic comb puts the teeth 1/M apart, so N^(2) is "
+                               "always floor(M W^(2)) or ceil(M W^(2)): Var = φ (1 - φ) with φ = M W^(2) - floor(M "
+                               "W^(2))."),
+             (f, "is φ = M W^(2) - floor(M W^(2)), the probability that N^(2) takes the larger value; the variance of "
+                 "floor(M W^(2)) + Bernoulli(φ) is φ (1 - φ)."),
+             (1 - f, "is 1 - φ, the probability of the smaller value; the variance of floor(M W^(2)) + Bernoulli(φ) is "
+                     "φ (1 - φ), with φ = M W^(2) - floor(M W^(2))."),
+             (0.0, "would mean that N^(2) is always the same number, which happens only when M W^(2) is a whole "
+                   "number; here it is not, so N^(2) takes two values."),
+             (0.25, "is 1/4, the variance of a fair coin; here the larger value has probability "
+                    "φ = M W^(2) - floor(M W^(2)), and Var = φ (1 - φ)."), (math.sqrt(f * (1 - f)), std)],
+            [(f * (1 - f), f"is φ (1 - φ), the systematic variance (or the residual one with M̃ = 1). The residual "
+                           f"scheme draws {res} points multinomially from the residual weights φ^(i) / M̃: "
+                           f"Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃). Count M̃ again."),
+             (M * w * (1 - w), f"is the multinomial variance over all M draws; in the residual scheme the "
+                               f"floor(M W^(i)) copies are fixed and only {res} draws are random: Var = φ (1 - φ/M̃)."),
+             (f * (1 - f / M), f"divides φ by M; the residual weights φ^(i) are normalised by their sum {res}, not by "
+                               f"M: Var = φ (1 - φ/M̃)."),
+             (R * f * (1 - f / R), "has an extra factor M̃: M̃ draws with probability φ/M̃ each give "
+                                   "Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃)."), (math.sqrt(f * (1 - f / R)), std),
+             (other[3], zero)] + [(f * (1 - f / r), f"uses the wrong number of residual draws M̃: {res}, with the "
+                                                    f"floors of all four particles.") for r in range(2, M + 1)
+                                  if r != R]]
     what, order = "answer_2", "np.array([E_N1, var_multinomial, var_systematic, var_residual])"
     if answer is None or answer is Ellipsis:
         return _not_attempted(what)
