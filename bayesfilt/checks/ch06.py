@@ -332,6 +332,8 @@ def _experiment_4(n_particles: int = N_4) -> tuple[float, str]:
             res = particle.particle_filter(vehicle, ys, n_particles, rng, ess_threshold=1.0, roughening=K)
             nees[r] = gaussian.squared_mahalanobis(xs - res.means, res.covs, singular="inf")
             lost += np.linalg.norm(models.positions(vehicle, xs - res.means)[-1]) > LOST_METRES_4
+            if lost > MAX_LOST_4:  # this K loses track, whatever the remaining runs do
+                break
         if lost <= MAX_LOST_4:
             return K, VERDICTS_4[int(np.median(nees[:, T_FROM_4:]) <= NEES_MEDIAN_4)]
     return math.nan, ""
