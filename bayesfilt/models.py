@@ -834,7 +834,8 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
     Returns
     -------
     NonlinearGaussian
-        With ``residual_fn`` = :func:`range_bearing_residual`.
+        Its ``residual_fn`` is :func:`range_bearing_residual` without the input checks
+        (``NonlinearGaussian.residual`` checks the shapes and the output).
     """
     velocity_var = as_positive_float("velocity_var", velocity_var)
     range_var = as_positive_float("range_var", range_var)

@@ -484,3 +484,24 @@ def test_transition_draws_of_a_scalar_model_are_the_mean_plus_sigma_z():
     got = model.sample_transition(np.random.default_rng(5), xs, t=2)
     z = np.random.default_rng(5).standard_normal((7, 1))
     np.testing.assert_allclose(got, model.transition_mean(xs, t=2) + np.sqrt(10.0) * z, rtol=1e-14)
+
+
+def test_range_bearing_model_residual_wraps_the_bearing_and_checks_shapes():
+    # independent reference: the range difference as it is, the bearing difference brought
+    # into (-pi, pi] by adding or subtracting 2 pi
+    model = bf.models.range_bearing()
+    rng = np.random.default_rng(3)
+    y = np.column_stack([rng.uniform(0, 20, 50), rng.uniform(-np.pi, np.pi, 50)])
+    y_pred = np.column_stack([rng.uniform(0, 20, 50), rng.uniform(-np.pi, np.pi, 50)])
+    d = y[:, 1] - y_pred[:, 1]
+    expected = np.column_stack([y[:, 0] - y_pred[:, 0],
+                                np.where(d > np.pi, d - 2 * np.pi, np.where(d <= -np.pi, d + 2 * np.pi, d))])
+    np.testing.assert_allclose(model.residual(y, y_pred), expected, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(bf.models.range_bearing_residual(y, y_pred), expected, rtol=0, atol=1e-12)
+    y_before = y.copy()
+    model.residual(y, y_pred)
+    np.testing.assert_array_equal(y, y_before)          # the caller's arrays are not changed
+    with pytest.raises(ValueError, match=r"y must have shape \(\.\.\., 2\), got shape \(3,\)"):
+        model.residual(np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match=r"y_pred must have shape \(\.\.\., 2\)"):
+        model.residual(np.zeros(2), np.zeros((4, 1)))
