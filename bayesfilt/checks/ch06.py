@@ -339,8 +339,8 @@ def _experiment_4(n_particles: int = N_4) -> tuple[float, str]:
     return math.nan, ""
 
 
-_VERDICT_WORDS = {"overconfident": "overconfident", "above": "overconfident", "above 4": "overconfident",
-                  "conservative": "conservative", "below": "conservative", "below 4": "conservative"}
+_VERDICT_WORDS = {"overconfident": "overconfident", "above": "overconfident",   # not "above 4": 3.36 is
+                  "conservative": "conservative", "below": "conservative"}       # the median compared with
 
 
 def exercise_4(answer, n_particles: int = N_4) -> Feedback:
