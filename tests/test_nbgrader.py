@@ -17,7 +17,8 @@ Chapter 02 is used because it is the cheapest chapter to execute; the checks'
 time limit is set to 1 s (``BAYESFILT_CHECK_TIME_LIMIT``) so that the endless
 loop costs one second. (Carol's answer cell types her values in: had it called the looping
 function, nbgrader's own 30 s cell timeout would have stopped it, a path of nbgrader's that
-INSTRUCTORS.md describes and this test does not run; it cost 30 of the test's 87 s.) The test needs the chapter notebooks as nbgrader source
+INSTRUCTORS.md describes and this test does not run; it cost 30 of the test's 87 s.)
+The test needs the chapter notebooks as nbgrader source
 notebooks (issue 13: solution and grade metadata on the exercise cells).
 """
 

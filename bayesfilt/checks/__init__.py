@@ -102,10 +102,10 @@ _timer_active = threading.local()
 
 
 @contextlib.contextmanager
-def _time_limit(seconds: float | None, message: str):
-    """Stop the block after ``seconds`` (None or 0: never) with _Stop(message): SIGALRM by
+def _time_limit(seconds: float, message: str):
+    """Stop the block after ``seconds`` (0: never) with _Stop(message): SIGALRM by
     setitimer (POSIX, main thread; elsewhere no limit); a long C call ends first."""
-    if (seconds is None or seconds <= 0 or not hasattr(signal, "setitimer")
+    if (seconds <= 0 or not hasattr(signal, "setitimer")
             or threading.current_thread() is not threading.main_thread()
             or getattr(_timer_active, "on", False)):
         yield
@@ -144,10 +144,10 @@ def _same(a, b) -> bool:
         return True
 
 
-def _guard(fun, name: str | None = None, limit: float | None = None):
-    """``fun`` for a check: a call over ``limit`` s (default TIME_LIMIT), or one that changes an
-    argument or a chapter array in place (put back), ends the check with a "Not yet"."""
-    name = name or getattr(fun, "__name__", "your function")
+def _guard(fun):
+    """``fun`` for a check: a call over TIME_LIMIT s, or one that changes an argument or a
+    chapter array in place (put back), ends the check with a "Not yet"."""
+    name = getattr(fun, "__name__", "<lambda>")
     name = "your function" if name == "<lambda>" else name
     code, space = getattr(fun, "__code__", None), getattr(fun, "__globals__", None)
     refs, stack = set(), [code] if code is not None and isinstance(space, dict) else []
@@ -171,9 +171,9 @@ def _guard(fun, name: str | None = None, limit: float | None = None):
         except Exception:  # noqa: BLE001 - an argument we cannot copy is not watched
             before = ()
         chapter = {k: copy.deepcopy(v) for k, v in watched.items()}
-        seconds = TIME_LIMIT if limit is None else limit
-        with _time_limit(seconds, f"your function {name} did not return within {seconds:g} s: "
-                                 f"an endless loop? (test input: {_describe_args(args)})"):
+        with _time_limit(TIME_LIMIT, f"your function {name} did not return within "
+                                     f"{TIME_LIMIT:g} s: an endless loop? (test input: "
+                                     f"{_describe_args(args)})"):
             out = fun(*args, **kwargs)
         names = params + [f"argument {k + 1}" for k in range(len(params), len(args))]
         for arg, now, then in zip(names, args, before):

@@ -320,8 +320,8 @@ def exercise_3(answer) -> Feedback:
 
 
 # --- exercise 4: tuning roughening ------------------------------------------------------------------------
-@functools.lru_cache(maxsize=2)
-def _experiment_4(n_particles: int = N_4) -> tuple[float, str]:
+@functools.lru_cache(maxsize=1)
+def _experiment_4() -> tuple[float, str]:
     """(the smallest K of K_VALUES_4 that loses at most MAX_LOST_4 runs, its NEES verdict)."""
     vehicle = models.range_bearing()
     sims = models.simulate_many(vehicle, RUNS_4, T_4, np.random.default_rng(SEED_RECORDS_4),
@@ -329,7 +329,7 @@ def _experiment_4(n_particles: int = N_4) -> tuple[float, str]:
     for K in K_VALUES_4:
         rng, nees, lost = np.random.default_rng(SEED_FILTERS_4), np.empty((RUNS_4, T_4)), 0
         for r, (xs, ys) in enumerate(zip(sims.xs, sims.ys)):   # section 6's roughened SIR
-            res = particle.particle_filter(vehicle, ys, n_particles, rng, ess_threshold=1.0, roughening=K)
+            res = particle.particle_filter(vehicle, ys, N_4, rng, ess_threshold=1.0, roughening=K)
             nees[r] = gaussian.squared_mahalanobis(xs - res.means, res.covs, singular="inf")
             lost += np.linalg.norm(models.positions(vehicle, xs - res.means)[-1]) > LOST_METRES_4
             if lost > MAX_LOST_4:  # this K loses track, whatever the remaining runs do
@@ -360,7 +360,7 @@ def exercise_4(answer, n_particles: int = N_4) -> Feedback:
     if K is None:
         return bad or _wrong(f"{what}[0], K_min, must be one of the roughening constants {list(K_VALUES_4)}" + (
             " (a number of lost runs? give the roughening constant K itself)" if v.is_integer() else "") + ".")
-    K_ref, verdict_ref = _experiment_4(n_particles)
+    K_ref, verdict_ref = _experiment_4()
     if K < K_ref:
         return _wrong(f"{what}[0]: with K = {K} the jitter is too small to separate the copies: the filter loses "
                       f"more than {MAX_LOST_4} of the {RUNS_4} runs (final position error above "
