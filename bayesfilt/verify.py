@@ -5,16 +5,28 @@ independent reference (a simulation, brute force, another formula, filterpy).
 In a chapter that check is one call to this module::
 
     import bayesfilt as bf
-    bf.verify.agree("prediction vs. brute force", prior, brute)
-    bf.verify.mc_moments("x_1 vs. 100 000 simulated draws", draws, mean, cov)
+    bf.verify.agree("the prediction agrees with brute force", prior, brute)
+    bf.verify.mc_moments("100 000 simulated x_1 agree with the recursion", draws, mean, cov)
+    # prints: ✓ the prediction agrees with brute force
+    #         ✓ 100 000 simulated x_1 agree with the recursion
 
-Each function prints one short line when the comparison holds and raises
-``AssertionError`` with a message that says what differed when it does not.
+Each function prints one short, plain line when the comparison holds,
+``✓`` and the label, and raises ``AssertionError`` with a message that says
+what differed when it does not. The numbers behind the tick (the tolerance,
+or how many standard errors the estimate is from the exact value and the
+limit) are kept, not printed: :func:`report` prints them all, once, in a
+chapter's optional section "How the checks were calibrated". Several checks
+that make one point print one line together::
+
+    with bf.verify.together("the update agrees with Theorem 10.2"):
+        bf.verify.agree("posterior mean", step.mean, theorem.mean)
+        bf.verify.agree("posterior covariance", step.cov, theorem.cov)
+
 There are two kinds of comparison.
 
 **Exact up to rounding** (:func:`agree`, :func:`within`). Two computations of
 the same number; the tolerance is a bound on floating-point round-off, and
-the printed line gives the bound, not the raw difference, so that the
+the recorded detail gives the bound, not the raw difference, so that the
 output does not depend on the last bits of the arithmetic.
 
 **Monte Carlo** (:func:`mc_mean`, :func:`mc_moments`, :func:`mc_frequencies`).
@@ -37,14 +49,89 @@ typically off by many SE and fails.
 
 from __future__ import annotations
 
+import contextlib
 from statistics import NormalDist
 
 import numpy as np
 
-__all__ = ["z_limit", "agree", "within", "mean_se", "mc_mean", "mc_moments", "mc_frequencies"]
+__all__ = ["z_limit", "agree", "within", "mean_se", "mc_mean", "mc_moments", "mc_frequencies",
+           "together", "report", "forget"]
 
 ALPHA = 1e-4
 """Largest probability that a Monte Carlo check fails on a correct result."""
+
+
+_DETAILS: dict[str, str] = {}
+"""label -> what the check measured (its tolerance or SE), in the order first checked."""
+
+_GROUPS: list[list[str]] = []
+"""Open :func:`together` blocks, innermost last: the labels checked inside each."""
+
+
+def _passed(label: str, detail: str) -> None:
+    """Record a passed check's detail; print its tick unless a :func:`together` block is open."""
+    _DETAILS[label] = detail
+    if _GROUPS:
+        _GROUPS[-1].append(label)
+    else:
+        print(f"\u2713 {label}")
+
+
+@contextlib.contextmanager
+def together(label: str):
+    """Run several checks that make one point, and print one line for all of them.
+
+    Parameters
+    ----------
+    label : str
+        The point they make, printed as ``✓ label`` once every check in the
+        block has passed. Each check's own detail is recorded under its own
+        label, for :func:`report`.
+
+    Raises
+    ------
+    AssertionError
+        From the first check in the block that fails (nothing is printed).
+    ValueError
+        If the block ran no check.
+    """
+    _GROUPS.append([])
+    try:
+        yield
+        inner = _GROUPS[-1]
+    finally:
+        _GROUPS.pop()
+    if not inner:
+        raise ValueError(f"together({label!r}): the block ran no check")
+    if _GROUPS:
+        _GROUPS[-1].extend(inner)
+    else:
+        print(f"\u2713 {label}")
+
+
+def report(labels=None) -> None:
+    """Print what every passed check measured: its tolerance, or its distance in SE.
+
+    Parameters
+    ----------
+    labels : sequence of str, optional
+        The labels to report, in this order; by default every check passed so
+        far in this session, in the order first checked.
+
+    Raises
+    ------
+    KeyError
+        If a requested label was never checked.
+    """
+    for label in _DETAILS if labels is None else labels:
+        if label not in _DETAILS:
+            raise KeyError(f"labels: no check named {label!r} has passed in this session")
+        print(f"{label}: {_DETAILS[label]}")
+
+
+def forget() -> None:
+    """Clear the record that :func:`report` prints (a test starts from an empty one)."""
+    _DETAILS.clear()
 
 
 def z_limit(k: int = 1, alpha: float = ALPHA, dof: int | None = None) -> float:
@@ -125,11 +212,11 @@ def agree(label: str, got, expected, tol: float = 1e-12, relative: bool = False)
         what = "max relative difference"
     if not diff < tol:
         raise AssertionError(f"{label}: {what} is {diff:.2e}, not below {tol:.0e}")
-    print(f"{label}: {what} < {_fmt_tol(tol)}")
+    _passed(label, f"{what} < {_fmt_tol(tol)}")
 
 
 def within(label: str, value, low: float, high: float, unit: str = "") -> None:
-    """Check that every entry of ``value`` lies in ``[low, high]``; print the range seen.
+    """Check that every entry of ``value`` lies in ``[low, high]``.
 
     Parameters
     ----------
@@ -140,7 +227,7 @@ def within(label: str, value, low: float, high: float, unit: str = "") -> None:
     low, high : float
         The closed interval.
     unit : str
-        Appended to the printed numbers, e.g. ``" m"``.
+        Appended to the recorded numbers, e.g. ``" m"``.
     """
     value = np.asarray(value, dtype=float)
     if not low <= high:
@@ -150,7 +237,7 @@ def within(label: str, value, low: float, high: float, unit: str = "") -> None:
     if value.min() < low or value.max() > high:
         raise AssertionError(f"{label}: values from {value.min():.4g} to {value.max():.4g}{unit}, "
                              f"outside [{low:.4g}, {high:.4g}]{unit}")
-    print(f"{label}: in [{low:.4g}, {high:.4g}]{unit}")
+    _passed(label, f"in [{low:.4g}, {high:.4g}]{unit}")
 
 
 def mean_se(values, axis: int = 0):
@@ -191,7 +278,7 @@ def _report(label, worst, k, z, what):
     if not worst <= z:
         raise AssertionError(f"{label}: {what} is {worst:.1f} standard errors from the exact value; "
                              f"a correct result exceeds {z:.1f} SE with probability < {ALPHA:.0e}")
-    print(f"{label}: within {worst:.1f} SE of the exact value (limit {z:.1f} SE, {k} entries)")
+    _passed(label, f"within {worst:.1f} SE of the exact value (limit {z:.1f} SE, {k} entries)")
 
 
 def mc_mean(label: str, values, expected) -> None:

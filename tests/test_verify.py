@@ -35,7 +35,10 @@ def test_z_limit_is_the_two_sided_normal_quantile_with_a_union_bound():
 
 
 def test_agree_passes_within_tolerance_and_fails_beyond(capsys):
+    bf.verify.forget()
     bf.verify.agree("same", [1.0, 2.0], [1.0, 2.0 + 1e-14])
+    assert capsys.readouterr().out == "\u2713 same\n"
+    bf.verify.report()
     assert capsys.readouterr().out == "same: max |difference| < 1e-12\n"
     with pytest.raises(AssertionError, match="differ.*1.00e-06"):
         bf.verify.agree("differ", [1.0], [1.0 + 1e-6])
@@ -86,3 +89,42 @@ def test_mc_frequencies():
         bf.verify.mc_frequencies("wrong law", draws, np.array([0.45, 0.35, 0.2, 0.0]))
     with pytest.raises(ValueError, match="draws"):
         bf.verify.mc_frequencies("float draws", draws.astype(float), probs)
+
+
+def test_the_core_line_is_quiet_and_report_keeps_the_numbers(capsys):
+    bf.verify.forget()
+    rng = np.random.default_rng(5)
+    draws = rng.standard_normal((4000, 1))
+    bf.verify.mc_moments("draws agree with N(0, 1)", draws, [0.0], [[1.0]])
+    bf.verify.within("a probability", 0.3, 0.0, 1.0)
+    line = capsys.readouterr().out
+    assert line == "\u2713 draws agree with N(0, 1)\n\u2713 a probability\n", line
+    assert "SE" not in line and "limit" not in line
+    bf.verify.report()
+    details = capsys.readouterr().out.splitlines()
+    assert details[0].startswith("draws agree with N(0, 1): within ") and "SE" in details[0]
+    assert details[1] == "a probability: in [0, 1]"
+    bf.verify.report(["a probability"])
+    assert capsys.readouterr().out == "a probability: in [0, 1]\n"
+    with pytest.raises(KeyError, match="labels"):
+        bf.verify.report(["never checked"])
+
+
+def test_together_prints_one_line_and_fails_with_the_first_failing_check(capsys):
+    bf.verify.forget()
+    with bf.verify.together("both forms agree"):
+        bf.verify.agree("first", [1.0], [1.0])
+        with bf.verify.together("inner"):          # nested blocks print nothing of their own
+            bf.verify.agree("second", [2.0], [2.0])
+    assert capsys.readouterr().out == "\u2713 both forms agree\n"
+    bf.verify.report()
+    assert capsys.readouterr().out.splitlines() == ["first: max |difference| < 1e-12",
+                                                    "second: max |difference| < 1e-12"]
+    with pytest.raises(AssertionError, match="wrong"):
+        with bf.verify.together("never printed"):
+            bf.verify.agree("right", [1.0], [1.0])
+            bf.verify.agree("wrong", [1.0], [2.0])
+    assert capsys.readouterr().out == ""
+    with pytest.raises(ValueError, match="no check"):
+        with bf.verify.together("empty"):
+            pass
