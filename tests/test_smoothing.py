@@ -1,0 +1,477 @@
+"""Tests of bayesfilt.smoothing against independent references.
+
+* rts_smoother: the conditional of the whole joint Gaussian of
+  (x_0, ..., x_{T-1}, the observed y_t), built by stacking and conditioned
+  with plain numpy (no bayesfilt), on random linear models with missing rows
+  and control inputs, and with a singular P_{t+1|t}; filterpy's
+  rts_smoother where nothing is missing (and where filterpy is wrong: a
+  control input);
+* grid_smoother: the RTS smoother on a linear-Gaussian 1-D model;
+* ffbsi: given the particle filter's output, its draws follow the exact
+  marginals of the backward kernel (a frequency test); over independent
+  runs, its smoothed means agree with the grid smoother within their
+  Monte Carlo error;
+* genealogy: a hand-made history, and the particle filter's own convention;
+* every documented bad input raises a clear error naming the argument.
+
+The Monte Carlo limits give a correct implementation a failure probability
+below 1e-4 for any seed (union bound over the entries compared).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from filterpy.kalman import KalmanFilter
+from filterpy.kalman import rts_smoother as fp_rts_smoother
+from scipy import stats
+
+import bayesfilt as bf
+from bayesfilt.smoothing import ffbsi, genealogy, grid_smoother, rts_smoother
+
+
+# ---------------------------------------------------------------------------
+# The brute-force reference: condition the whole joint Gaussian (plain numpy)
+# ---------------------------------------------------------------------------
+
+def joint_conditional(A, C, Q, R, m0, P0, G, B, us, ys):
+    """E and cov of x_{0:T-1} given the observed rows of ys, by stacking everything.
+
+    x_t = mu_t + Phi_t z with z = (x_0 - m0, w_0, ..., w_{T-2}) ~ N(0, diag(P0, Q, ..., Q))
+    and mu_t = A^t m0 + sum_{s<t} A^{t-1-s} B u_s; the observed y_t = C x_t + v_t.
+    Returns the means (T, n), the covariances (T, n, n) and cov(x_{t+1}, x_t | y) (T-1, n, n).
+    """
+    T, m = ys.shape
+    n, q = A.shape[0], Q.shape[0]
+    mu = np.zeros((T, n))
+    mu[0] = m0
+    Phi = np.zeros((T * n, n + (T - 1) * q))
+    Phi[:n, :n] = np.eye(n)
+    for t in range(1, T):
+        mu[t] = A @ mu[t - 1] + (0.0 if B is None else B @ us[t - 1])
+        Phi[t * n:(t + 1) * n] = A @ Phi[(t - 1) * n:t * n]
+        Phi[t * n:(t + 1) * n, n + (t - 1) * q:n + t * q] += G
+    Sz = np.zeros((n + (T - 1) * q,) * 2)
+    Sz[:n, :n] = P0
+    for s in range(T - 1):
+        Sz[n + s * q:n + (s + 1) * q, n + s * q:n + (s + 1) * q] = Q
+    Sxx = Phi @ Sz @ Phi.T
+    observed = [t for t in range(T) if not np.isnan(ys[t]).all()]
+    Cbar = np.zeros((len(observed) * m, T * n))
+    Rbar = np.zeros((len(observed) * m,) * 2)
+    for k, t in enumerate(observed):
+        Cbar[k * m:(k + 1) * m, t * n:(t + 1) * n] = C
+        Rbar[k * m:(k + 1) * m, k * m:(k + 1) * m] = R
+    mean, cov = mu.reshape(-1), Sxx
+    if observed:
+        y = np.concatenate([ys[t] for t in observed])
+        Sxy, Syy = Sxx @ Cbar.T, Cbar @ Sxx @ Cbar.T + Rbar
+        mean = mean + Sxy @ np.linalg.solve(Syy, y - Cbar @ mean)
+        cov = Sxx - Sxy @ np.linalg.solve(Syy, Sxy.T)
+    blocks = [cov[t * n:(t + 1) * n, t * n:(t + 1) * n] for t in range(T)]
+    cross = [cov[(t + 1) * n:(t + 2) * n, t * n:(t + 1) * n] for t in range(T - 1)]
+    return mean.reshape(T, n), np.array(blocks), np.array(cross).reshape(T - 1, n, n)
+
+
+def _covariance(rng, k):
+    M = rng.normal(size=(k, k))
+    return M @ M.T / k + 0.3 * np.eye(k)
+
+
+def _random_case(seed):
+    """A random linear model (n <= 3, m <= 2, q <= 2, p <= 2), inputs, and a record with gaps."""
+    rng = np.random.default_rng(seed)
+    n, m, q, p = (int(k) for k in rng.integers(1, [4, 3, 3, 3]))
+    T = int(rng.integers(2, 11))
+    mats = dict(A=rng.normal(size=(n, n)) / np.sqrt(n), C=rng.normal(size=(m, n)),
+                Q=_covariance(rng, q), R=_covariance(rng, m), m0=rng.normal(size=n),
+                P0=_covariance(rng, n), G=rng.normal(size=(n, q)), B=rng.normal(size=(n, p)))
+    model = bf.models.LinearGaussian(**mats)
+    us = rng.normal(size=(T - 1, p))
+    ys = bf.models.simulate(model, T, rng, us=us).ys
+    ys[rng.random(T) < 0.3] = np.nan                         # missing rows, anywhere
+    return model, mats, us, ys
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_rts_equals_the_conditional_of_the_whole_joint_gaussian(seed):
+    model, mats, us, ys = _random_case(seed)
+    smooth = rts_smoother(model, bf.kalman.kalman_filter(model, ys, us=us))
+    means, covs, cross = joint_conditional(**mats, us=us, ys=ys)
+    np.testing.assert_allclose(smooth.means, means, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(smooth.covs, covs, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(smooth.cross_covs, cross, rtol=0, atol=1e-8)
+    T, n = means.shape
+    assert smooth.gains.shape == (T - 1, n, n)
+
+
+def test_rts_gain_is_the_regression_slope_of_x_t_on_x_t_plus_1():
+    """J_t = P_{t|t} A^T P_{t+1|t}^{-1}, and cov(x_{t+1}, x_t | y) = P_{t+1|T-1} J_t^T."""
+    model, _, us, ys = _random_case(3)
+    res = bf.kalman.kalman_filter(model, ys, us=us)
+    smooth = rts_smoother(model, res)
+    for t in range(ys.shape[0] - 1):
+        J = res.covs[t] @ model.A.T @ np.linalg.inv(res.pred_covs[t + 1])
+        np.testing.assert_allclose(smooth.gains[t], J, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(smooth.cross_covs[t], smooth.covs[t + 1] @ J.T, atol=1e-10)
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.4])
+def test_rts_with_a_singular_prediction_covariance(angle):
+    """A component known exactly and never pushed: P_{t+1|t} is singular and the pseudo-inverse
+    gives the exact conditional. Written in a rotated basis (angle 0.4), rounding makes the
+    singular P_{t+1|t} pass a Cholesky factorisation with a pivot at the rounding level."""
+    S = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    P0 = S @ np.diag([1.0, 0.0]) @ S.T
+    mats = dict(A=S @ np.array([[0.9, 1.0], [0.0, 1.0]]) @ S.T, C=np.array([[1.0, 0.3]]),
+                Q=np.array([[0.5]]), R=np.array([[0.4]]), m0=S @ np.array([0.0, 2.0]),
+                P0=0.5 * (P0 + P0.T), G=S @ np.array([[1.0], [0.0]]), B=None)
+    model = bf.models.LinearGaussian(**mats)
+    ys = bf.models.simulate(model, 10, np.random.default_rng(0)).ys
+    ys[3] = np.nan
+    res = bf.kalman.kalman_filter(model, ys)
+    assert np.linalg.matrix_rank(res.pred_covs[4]) == 1
+    smooth = rts_smoother(model, res)
+    means, covs, cross = joint_conditional(**mats, us=None, ys=ys)
+    np.testing.assert_allclose(smooth.means, means, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(smooth.covs, covs, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(smooth.cross_covs, cross, rtol=0, atol=1e-8)
+
+
+def test_rts_of_a_batched_result_equals_one_run_at_a_time():
+    model, _, us, _ = _random_case(5)
+    rng = np.random.default_rng(50)
+    T = us.shape[0] + 1
+    ys = bf.models.simulate_many(model, 4, T, rng, us=us).ys
+    ys[1, 1] = np.nan                        # runs 1 and 2 share a missing-data pattern
+    ys[2, 1] = np.nan
+    batch = rts_smoother(model, bf.kalman.batch_kalman_filter(model, ys, us=us))
+    for k in range(4):
+        one = rts_smoother(model, bf.kalman.kalman_filter(model, ys[k], us=us))
+        for field in one._fields:
+            np.testing.assert_allclose(getattr(batch, field)[k], getattr(one, field),
+                                       rtol=0, atol=1e-12)
+
+
+def test_rts_at_one_step_is_the_filter():
+    model, _, _, _ = _random_case(1)
+    ys = bf.models.simulate(model, 1, np.random.default_rng(1)).ys
+    res = bf.kalman.kalman_filter(model, ys)
+    smooth = rts_smoother(model, res)
+    np.testing.assert_array_equal(smooth.means, res.means)
+    assert smooth.gains.shape == (0, model.state_dim, model.state_dim)
+
+
+# ---------------------------------------------------------------------------
+# filterpy
+# ---------------------------------------------------------------------------
+
+def _filterpy_filter(model, ys, us=None):
+    """filterpy's KalmanFilter in the course's time convention: update(y_0) first."""
+    kf = KalmanFilter(dim_x=model.state_dim, dim_z=model.obs_dim)
+    kf.F, kf.H, kf.R = model.A.copy(), model.C.copy(), model.R.copy()
+    kf.Q = model.G @ model.Q @ model.G.T             # filterpy's Q is the course's G Q G^T
+    kf.x, kf.P = model.m0.copy(), model.P0.copy()
+    if us is not None:
+        kf.B = model.B.copy()
+    xs, Ps = [], []
+    for t, y in enumerate(ys):
+        if t > 0:
+            kf.predict(u=0 if us is None else us[t - 1])
+        kf.update(y)
+        xs.append(kf.x.copy())
+        Ps.append(kf.P.copy())
+    return kf, np.array(xs), np.array(Ps)
+
+
+def test_rts_equals_filterpy_where_nothing_is_missing():
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 60, np.random.default_rng(7)).ys
+    smooth = rts_smoother(model, bf.kalman.kalman_filter(model, ys))
+    kf, xs, Ps = _filterpy_filter(model, ys)
+    T = len(ys)
+    # module function: Fs[k], Qs[k] move x_k to x_{k+1}; the method reads Fs[k + 1] instead
+    x, P, K, Pp = fp_rts_smoother(xs, Ps, [kf.F] * T, [kf.Q] * T)
+    np.testing.assert_allclose(smooth.means, x, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(smooth.covs, P, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(smooth.gains, K[:-1], rtol=0, atol=1e-10)
+    x2, P2, _, _ = kf.rts_smoother(xs, Ps)
+    np.testing.assert_allclose(smooth.means, x2, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(smooth.covs, P2, rtol=0, atol=1e-10)
+
+
+def test_filterpy_rts_ignores_a_control_input():
+    """filterpy predicts F x in its smoother, without B u: with an input it is off, ours is not."""
+    model = bf.models.damped_particle(B=np.array([[0.0], [1.0], [0.0], [0.0]]))
+    T = 30
+    us = np.full((T - 1, 1), 0.2)
+    ys = bf.models.simulate(model, T, np.random.default_rng(8), us=us).ys
+    smooth = rts_smoother(model, bf.kalman.kalman_filter(model, ys, us=us))
+    mats = dict(A=model.A, C=model.C, Q=model.Q, R=model.R, m0=model.m0, P0=model.P0, G=model.G,
+                B=model.B)
+    means, _, _ = joint_conditional(**mats, us=us, ys=ys)
+    np.testing.assert_allclose(smooth.means, means, rtol=0, atol=1e-8)
+    kf, xs, Ps = _filterpy_filter(model, ys, us)
+    x, _, _, _ = fp_rts_smoother(xs, Ps, [kf.F] * T, [kf.Q] * T)
+    np.testing.assert_allclose(xs, bf.kalman.kalman_filter(model, ys, us=us).means, atol=1e-10)
+    assert np.abs(x - means).max() > 1.0     # filterpy's smoothed means miss the pushes
+
+
+# ---------------------------------------------------------------------------
+# The grid smoother
+# ---------------------------------------------------------------------------
+
+MODEL_1D = bf.models.LinearGaussian(A=[[0.9]], C=[[0.5]], Q=[[0.5]], R=[[0.4]], m0=[1.0],
+                                    P0=[[2.0]])
+GRID_1D = np.linspace(-12.0, 12.0, 801)
+
+
+def _record_1d(T=12, seed=3):
+    ys = bf.models.simulate(MODEL_1D, T, np.random.default_rng(seed)).ys
+    ys[4:7] = np.nan
+    return ys
+
+
+def test_grid_smoother_equals_rts_on_a_linear_gaussian_model():
+    ys = _record_1d()
+    exact = grid_smoother(MODEL_1D, bf.bayes.grid_filter(MODEL_1D, ys, GRID_1D))
+    smooth = rts_smoother(MODEL_1D, bf.kalman.kalman_filter(MODEL_1D, ys))
+    np.testing.assert_allclose(exact.means, smooth.means[:, 0], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(exact.variances, smooth.covs[:, 0, 0], rtol=0, atol=1e-10)
+    # the smoothed distribution itself, cell by cell (a Gaussian, discretised)
+    cell = GRID_1D[1] - GRID_1D[0]
+    for t in (0, 5, 11):
+        density = stats.norm.pdf(GRID_1D, smooth.means[t, 0], np.sqrt(smooth.covs[t, 0, 0]))
+        np.testing.assert_allclose(exact.posteriors[t], density * cell, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(exact.posteriors.sum(axis=1), 1.0, atol=1e-12)
+
+
+def test_grid_smoother_last_step_is_the_filter_and_the_time_varying_model_runs():
+    ungm = bf.models.ungm()
+    ys = bf.models.simulate(ungm, 6, np.random.default_rng(4)).ys
+    grid = np.linspace(-40.0, 40.0, 401)
+    filt = bf.bayes.grid_filter(ungm, ys, grid)
+    exact = grid_smoother(ungm, filt)
+    np.testing.assert_array_equal(exact.posteriors[-1], filt.posteriors[-1])
+    # one backward step by hand, with the transition of step 4 -> 5 (t = 4 for the UNGM)
+    log_p = np.array([[ungm.transition_logpdf([b], [a], t=4) for b in grid] for a in grid[::40]])
+    rows = np.exp(log_p - log_p.max(axis=1, keepdims=True))
+    full = np.exp(ungm.transition_logpdf(np.tile(grid[:, None], (len(grid), 1)),
+                                         np.repeat(grid[:, None], len(grid), axis=0), t=4)
+                  ).reshape(len(grid), -1)
+    np.testing.assert_allclose(rows / rows.sum(axis=1, keepdims=True),
+                               full[::40] / full[::40].sum(axis=1, keepdims=True), atol=1e-12)
+    trans = full / full.sum(axis=1, keepdims=True)
+    pred = filt.posteriors[4] @ trans
+    ratio = np.where(pred > 0, exact.posteriors[5] / np.where(pred > 0, pred, 1.0), 0.0)
+    by_hand = filt.posteriors[4] * (trans @ ratio)
+    np.testing.assert_allclose(exact.posteriors[4], by_hand / by_hand.sum(), rtol=0, atol=1e-12)
+
+
+# ---------------------------------------------------------------------------
+# The particle filter's history: what genealogy and ffbsi rely on
+# ---------------------------------------------------------------------------
+
+def test_the_history_stores_particles_before_resampling_and_ancestors_index_the_step_before():
+    quiet = bf.models.LinearGaussian(A=[[0.8]], C=[[1.0]], Q=[[1e-10]], R=[[1.0]], m0=[0.0],
+                                     P0=[[4.0]])
+    ys = bf.models.simulate(quiet, 15, np.random.default_rng(9)).ys
+    res = bf.particle.particle_filter(quiet, ys, 200, np.random.default_rng(10),
+                                      ess_threshold=1.0, keep_history=True)
+    h = res.history
+    # weighted particles of step t are the filter's estimate (before resampling)
+    np.testing.assert_allclose(np.einsum("tin,ti->tn", h.particles, h.weights), res.means,
+                               atol=1e-12)
+    # x_t^(i) = 0.8 x_{t-1}^(ancestors[t][i]) + (a kick of sd 1e-5)
+    for t in range(1, 15):
+        moved = 0.8 * h.particles[t - 1, h.ancestors[t], 0]
+        assert np.abs(h.particles[t, :, 0] - moved).max() < 1e-4
+    np.testing.assert_array_equal(h.ancestors[0], np.arange(200))
+
+
+# ---------------------------------------------------------------------------
+# genealogy
+# ---------------------------------------------------------------------------
+
+def test_genealogy_on_a_hand_made_history():
+    particles = np.arange(12.0).reshape(3, 4, 1)           # x_t^(i) = 4 t + i
+    weights = np.full((3, 4), 0.25)
+    ancestors = np.array([[0, 1, 2, 3], [1, 1, 3, 3], [0, 0, 1, 3]])
+    g = genealogy(bf.particle.ParticleHistory(particles, weights, ancestors))
+    # final particle 3 <- particle 3 at t = 1 <- particle 3 at t = 0, and so on
+    np.testing.assert_array_equal(g.indices, [[1, 1, 1, 3], [0, 0, 1, 3], [0, 1, 2, 3]])
+    np.testing.assert_array_equal(g.paths[:, :, 0], [[1, 4, 8], [1, 4, 9], [1, 5, 10],
+                                                     [3, 7, 11]])
+    np.testing.assert_array_equal(g.n_distinct, [2, 3, 4])
+    np.testing.assert_array_equal(g.weights, weights[2])
+
+
+def test_genealogy_paths_coalesce_going_back():
+    ungm = bf.models.ungm()
+    ys = bf.models.simulate(ungm, 40, np.random.default_rng(11)).ys
+    res = bf.particle.particle_filter(ungm, ys, 300, np.random.default_rng(12), keep_history=True)
+    g = genealogy(res.history)
+    assert g.n_distinct[-1] == 300 and np.all(np.diff(g.n_distinct) >= 0)
+    np.testing.assert_array_equal(g.paths[:, -1], res.history.particles[-1])
+
+
+# ---------------------------------------------------------------------------
+# ffbsi
+# ---------------------------------------------------------------------------
+
+def backward_marginals(model, X, W):
+    """P(a backward trajectory passes through particle i at t), exactly, given the history.
+
+    w^s_{T-1} = W_{T-1};  w^s_t(i) = W_t(i) sum_j w^s_{t+1}(j) p(x_{t+1}^j | x_t^i) /
+    sum_k W_t(k) p(x_{t+1}^j | x_t^k): the marginals of FFBSi's backward chain (plain loops).
+    """
+    T, N, _ = X.shape
+    ws = np.empty((T, N))
+    ws[-1] = W[-1]
+    for t in range(T - 2, -1, -1):
+        p = np.array([[np.exp(model.transition_logpdf(X[t + 1, j], X[t, i], t=t))
+                       for j in range(N)] for i in range(N)])          # p[i, j]
+        kernel = W[t][:, None] * p
+        kernel /= kernel.sum(axis=0, keepdims=True)                    # column j: backward kernel
+        ws[t] = kernel @ ws[t + 1]
+    return ws
+
+
+def test_ffbsi_draws_follow_the_exact_backward_marginals():
+    """Given the filter's output, each index indices[l, t] is an independent draw from the
+    exact marginal w^s_t: a frequency test on N T cells, z limit from the union bound."""
+    ungm = bf.models.ungm()
+    ys = bf.models.simulate(ungm, 8, np.random.default_rng(13)).ys
+    res = bf.particle.particle_filter(ungm, ys, 40, np.random.default_rng(14), keep_history=True)
+    X, W = res.history.particles, res.history.weights
+    exact = backward_marginals(ungm, X, W)
+    L = 20_000
+    draws = ffbsi(ungm, res.history, L, np.random.default_rng(15))
+    T, N = W.shape
+    freq = np.array([np.bincount(draws.indices[:, t], minlength=N) / L for t in range(T)])
+    se = np.sqrt(exact * (1 - exact) / L)
+    z = bf.verify.z_limit(T * N)
+    assert np.all(freq[se == 0] == exact[se == 0])
+    worst = np.max(np.abs(freq - exact)[se > 0] / se[se > 0])
+    assert worst <= z, f"a frequency is {worst:.1f} SE from its exact value (limit {z:.1f})"
+    np.testing.assert_array_equal(draws.paths[:, :, 0], X[np.arange(T), draws.indices, 0])
+
+
+def test_ffbsi_agrees_with_the_grid_smoother_within_its_monte_carlo_error():
+    """R independent (particle filter + FFBSi) runs; the mean of their smoothed means over the
+    runs is compared with the grid smoother's, in standard errors estimated from the runs
+    (Student's t, union bound over the T steps). The particle filter's bias, O(1/N), is far
+    below the standard error of R = 20 runs at N = 400 (a few percent of it)."""
+    ys = _record_1d()
+    exact = grid_smoother(MODEL_1D, bf.bayes.grid_filter(MODEL_1D, ys, GRID_1D))
+    rng = np.random.default_rng(16)
+    R, N, L = 20, 400, 100
+    estimates = np.empty((R, ys.shape[0]))
+    for r in range(R):
+        pf = bf.particle.particle_filter(MODEL_1D, ys, N, rng, keep_history=True)
+        estimates[r] = ffbsi(MODEL_1D, pf.history, L, rng).paths[:, :, 0].mean(axis=0)
+    mean, se = estimates.mean(axis=0), estimates.std(axis=0, ddof=1) / np.sqrt(R)
+    z = bf.verify.z_limit(ys.shape[0], dof=R - 1)
+    worst = np.max(np.abs(mean - exact.means) / se)
+    assert worst <= z, f"FFBSi is {worst:.1f} SE from the grid smoother (limit {z:.1f})"
+
+
+def test_ffbsi_passes_the_inputs_and_the_time_index_to_the_transition():
+    seen = []
+
+    class Spy(bf.models.LinearGaussian):
+        def transition_logpdf(self, x_next, xs, u=None, t=0):
+            seen.append((t, None if u is None else float(u[0])))
+            return super().transition_logpdf(x_next, xs, u, t)
+
+    spy = Spy(A=[[0.9]], C=[[1.0]], Q=[[0.5]], R=[[0.4]], m0=[0.0], P0=[[1.0]], B=[[1.0]])
+    us = np.array([[10.0], [20.0], [30.0]])
+    ys = bf.models.simulate(spy, 4, np.random.default_rng(17), us=us).ys
+    pf = bf.particle.particle_filter(spy, ys, 20, np.random.default_rng(18), us=us,
+                                     keep_history=True)
+    seen.clear()
+    ffbsi(spy, pf.history, 5, np.random.default_rng(19), us=us)
+    assert seen == [(2, 30.0), (1, 20.0), (0, 10.0)]
+
+
+# ---------------------------------------------------------------------------
+# Bad inputs
+# ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def kalman_case():
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 10, np.random.default_rng(20)).ys
+    return model, bf.kalman.kalman_filter(model, ys)
+
+
+def test_rts_bad_inputs(kalman_case):
+    model, res = kalman_case
+    with pytest.raises(TypeError, match="result must be the FilterResult"):
+        rts_smoother(model, (res.means, res.covs))
+    with pytest.raises(TypeError, match="model must be a bf.models.LinearGaussian.*extended RTS"):
+        rts_smoother(bf.models.to_nonlinear(model), res)
+    with pytest.raises(ValueError, match=r"result.means must have shape \(T, 2\)"):
+        rts_smoother(bf.models.LinearGaussian(A=np.eye(2), C=np.eye(2), Q=np.eye(2),
+                                              R=np.eye(2), m0=np.zeros(2), P0=np.eye(2)), res)
+    with pytest.raises(ValueError, match=r"result.covs must have shape \(10, 4, 4\)"):
+        rts_smoother(model, res._replace(covs=res.covs[:-1]))
+    with pytest.raises(ValueError, match="result.pred_covs must be finite"):
+        rts_smoother(model, res._replace(pred_covs=np.full_like(res.pred_covs, np.nan)))
+    with pytest.raises(ValueError, match=r"does not come from this model.*pred_covs\[1\]"):
+        rts_smoother(bf.models.damped_particle(force_var=0.02), res)
+    with pytest.raises(ValueError, match=r"does not come from this model.*pred_covs\[0\] is not "
+                                         r"model.P0"):
+        rts_smoother(bf.models.damped_particle(P0=2 * np.eye(4)), res)
+    with pytest.raises(ValueError, match=r"does not come from this model.*pred_means\[1\]"):
+        rts_smoother(model, res._replace(pred_means=res.pred_means + 1.0))
+
+
+def test_grid_smoother_bad_inputs():
+    ys = _record_1d(T=4)
+    filt = bf.bayes.grid_filter(MODEL_1D, ys, GRID_1D)
+    with pytest.raises(ValueError, match="scalar state"):
+        grid_smoother(bf.models.damped_particle(), filt)
+    with pytest.raises(TypeError, match="result must be the GridFilterResult"):
+        grid_smoother(MODEL_1D, filt.posteriors)
+    with pytest.raises(ValueError, match="result.posteriors must hold one probability vector"):
+        grid_smoother(MODEL_1D, filt._replace(posteriors=2 * filt.posteriors))
+    with pytest.raises(ValueError, match=r"result.posteriors must have shape \(\?, 801\)"):
+        grid_smoother(MODEL_1D, filt._replace(posteriors=filt.posteriors[:, :-1]))
+
+
+@pytest.fixture(scope="module")
+def particle_case():
+    ungm = bf.models.ungm()
+    ys = bf.models.simulate(ungm, 5, np.random.default_rng(21)).ys
+    res = bf.particle.particle_filter(ungm, ys, 30, np.random.default_rng(22), keep_history=True)
+    return ungm, res.history
+
+
+def test_particle_smoother_bad_inputs(particle_case):
+    ungm, h = particle_case
+    rng = np.random.default_rng(0)
+    with pytest.raises(TypeError, match="history must be the ParticleHistory"):
+        genealogy(h.particles)
+    with pytest.raises(TypeError, match="history must be the ParticleHistory"):
+        ffbsi(ungm, None, 10, rng)
+    with pytest.raises(ValueError, match="n_paths must be >= 1"):
+        ffbsi(ungm, h, 0, rng)
+    with pytest.raises(TypeError, match="n_paths must be an integer"):
+        ffbsi(ungm, h, 2.5, rng)
+    with pytest.raises(TypeError, match="rng must be a numpy.random.Generator"):
+        ffbsi(ungm, h, 10, 0)
+    with pytest.raises(ValueError, match=r"history.particles must have shape \(T, N, 4\)"):
+        ffbsi(bf.models.damped_particle(), h, 10, rng)
+    with pytest.raises(ValueError, match="history.weights must be normalised"):
+        ffbsi(ungm, h._replace(weights=2 * h.weights), 10, rng)
+    with pytest.raises(ValueError, match="history.ancestors must be integer indices"):
+        genealogy(h._replace(ancestors=h.ancestors + 30))
+    with pytest.raises(ValueError, match="us was given but the model has no control matrix B"):
+        ffbsi(ungm, h, 10, rng, us=np.zeros((4, 1)))
+    damped = bf.models.damped_particle()
+    ys = bf.models.simulate(damped, 3, np.random.default_rng(1)).ys
+    hd = bf.particle.particle_filter(damped, ys, 20, np.random.default_rng(2),
+                                     keep_history=True).history
+    with pytest.raises(ValueError, match="ffbsi needs the transition density"):
+        ffbsi(damped, hd, 10, rng)
