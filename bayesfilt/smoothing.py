@@ -348,13 +348,15 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
     batched = _check_filter_result(model, result)
     means, covs = np.asarray(result.means, float), np.asarray(result.covs, float)
     pred_means, pred_covs = np.asarray(result.pred_means, float), np.asarray(result.pred_covs, float)
-    observed = np.asarray(result.observed, dtype=bool)
+    # which measurements each run had: runs with the same pattern share their covariances
+    # and gains (batch_kalman_filter); the components if the result records them
+    seen = getattr(result, "observed_components", None)
+    seen = np.asarray(result.observed if seen is None else seen, dtype=bool)
     if not batched:
-        means, covs, pred_means, pred_covs, observed = (
-            a[None] for a in (means, covs, pred_means, pred_covs, observed))
+        means, covs, pred_means, pred_covs, seen = (
+            a[None] for a in (means, covs, pred_means, pred_covs, seen))
     M, T, n = means.shape
-    # runs with the same missing rows share their covariances and gains (batch_kalman_filter)
-    patterns, which = np.unique(observed, axis=0, return_inverse=True)
+    patterns, which = np.unique(seen.reshape(M, -1), axis=0, return_inverse=True)
     which = which.reshape(-1)
     out_means, out_covs = np.empty((M, T, n)), np.empty((M, T, n, n))
     gains, cross = np.empty((M, T - 1, n, n)), np.empty((M, T - 1, n, n))
@@ -365,8 +367,9 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
         if not (np.array_equal(covs[runs], np.broadcast_to(covs[k], covs[runs].shape))
                 and np.array_equal(pred_covs[runs],
                                    np.broadcast_to(pred_covs[k], pred_covs[runs].shape))):
-            raise ValueError("result.covs differ between runs with the same missing rows: a "
-                             "batched result must come from bf.kalman.batch_kalman_filter")
+            raise ValueError("result.covs differ between runs with the same missing "
+                             "measurements: a batched result must come from "
+                             "bf.kalman.batch_kalman_filter")
         _check_dynamics(model, covs[k], pred_covs[k], means[runs], pred_means[runs], where)
         J, P_s, C_s = _covariance_pass(model.A, covs[k], pred_covs[k])
         out_means[runs] = _mean_pass(J, means[runs], pred_means[runs])
