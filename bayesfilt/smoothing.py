@@ -61,7 +61,7 @@ Import it as ``bf.smoothing``::
     pf = bf.particle.particle_filter(ungm, ys, 500, np.random.default_rng(2),
                                      keep_history=True)
     paths = bf.smoothing.ffbsi(ungm, pf.history, 100, np.random.default_rng(3))
-    paths.paths.mean(axis=0)                            # (T, 1), close to exact.means
+    paths.paths.mean(axis=0)                            # (T, 1): compare exact.means
 
 Time convention (seed 000), as in every filter of the course: ``ys[0]``
 measures :math:`x_0`, and the last state is :math:`x_{T-1}`, so the
