@@ -550,7 +550,7 @@ def ffbsi(model, history: ParticleHistory, n_paths: int, rng, us=None) -> Backwa
 
     Cost: one transition density per (trajectory, particle, step), O(N L T)
     evaluations and memory O(N L) per step (in chunks of at most
-    :data:`FFBSI_CHUNK` pairs). For N = 1000, L = 100 and T = 50 that is
+    ``FFBSI_CHUNK`` pairs). For N = 1000, L = 100 and T = 50 that is
     five million densities. Given the particle filter's output the L
     trajectories are independent.
 
