@@ -285,7 +285,7 @@ def _check_dynamics(model, covs, pred_covs, means, pred_means, where: str):
 
 
 def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
-    r"""The Rauch-Tung-Striebel smoother: :math:`p(x_t \mid y_{0:T-1})` for a linear-Gaussian model.
+    r"""The Rauch-Tung-Striebel smoother: :math:`p(x_t \mid y_{0:T-1})`, linear-Gaussian model.
 
     From the Kalman filter's output, backward for t = T-2, ..., 0
     (Rauch, Tung & Striebel 1965; Särkkä 2013, Theorem 8.2; chapter 07
@@ -347,7 +347,8 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
     """
     batched = _check_filter_result(model, result)
     means, covs = np.asarray(result.means, float), np.asarray(result.covs, float)
-    pred_means, pred_covs = np.asarray(result.pred_means, float), np.asarray(result.pred_covs, float)
+    pred_means = np.asarray(result.pred_means, float)
+    pred_covs = np.asarray(result.pred_covs, float)
     # which measurements each run had: runs with the same pattern share their covariances
     # and gains (batch_kalman_filter); the components if the result records them
     seen = getattr(result, "observed_components", None)

@@ -1,10 +1,11 @@
 """Checks of chapter 07's exercises (smoothing; references by bf.smoothing, bf.kalman, bf.particle).
+
 One line per exercise::
 
-    exercise_1(gain_1, mean_1, var_1): one scalar backward step: J_t, the smoothed mean and variance;
+    exercise_1(gain_1, mean_1, var_1): one scalar backward step: J_t, smoothed mean, variance;
     exercise_2(rts_step): one backward step of the RTS smoother as a function, on four inputs;
-    exercise_3(sd_filter_3, sd_smooth_3): the largest sigma of xi_1 in a 20-step gap, filter and smoother;
-    exercise_4(distinct_genealogy_4, distinct_ffbsi_4): distinct particles at t = 0, genealogy and FFBSi.
+    exercise_3(sd_filter_3, sd_smooth_3): the largest sigma of xi_1 in a 20-step gap;
+    exercise_4(distinct_genealogy_4, distinct_ffbsi_4): distinct particles at t = 0.
 """
 
 from __future__ import annotations
@@ -237,7 +238,7 @@ def _gap_variances_3() -> dict:
 
 
 def exercise_3(sd_filter, sd_smooth) -> Feedback:
-    """sd_filter_3, sd_smooth_3: the largest sigma of xi_1 over the gap, filter and smoother (m)."""
+    """sd_filter_3, sd_smooth_3: the largest sigma of xi_1 over the gap, filter, smoother (m)."""
     v = _gap_variances_3()
     P_f, P_s = v["right"]
     sd_f, sd_s = np.sqrt(P_f[:, 0, 0]), np.sqrt(P_s[:, 0, 0])
