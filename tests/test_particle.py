@@ -279,7 +279,8 @@ def test_particle_filter_rejects_bad_arguments(kwargs, err, match):
 
 def test_particle_filter_rejects_bad_data_and_bad_proposals():
     model, rng = linear_model(), np.random.default_rng(0)
-    with pytest.raises(ValueError, match="ys row 1 must be all finite or all NaN"):
+    with pytest.raises(ValueError, match=r"ys must be finite or NaN \(missing\), got inf at "
+                                         r"index \(1, 0\)"):
         bf.particle.particle_filter(model, [[0.0], [np.inf]], 10, rng)
     with pytest.raises(ValueError, match=r"ys must have shape \(\?, 1\)"):
         bf.particle.particle_filter(model, np.zeros((3, 2)), 10, rng)
