@@ -797,14 +797,21 @@ def wrap_angle(angle):
     -------
     ndarray (same shape)
         :math:`\pi - ((\pi - a) \bmod 2\pi)`, so that :math:`\pi` maps to
-        :math:`\pi` and :math:`-\pi` to :math:`\pi`.
+        :math:`\pi` and :math:`-\pi` to :math:`\pi`. Every value lies in
+        :math:`(-\pi, \pi]`, also where rounding would give :math:`-\pi`
+        (one ulp above :math:`\pi`, the mod rounds up to :math:`2\pi`): such a
+        value is returned as :math:`\pi`, the same angle.
     """
     return _wrap(as_array("angle", angle))
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
-    # pi - ((pi - a) mod 2 pi), in (-pi, pi]
-    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+    # pi - ((pi - a) mod 2 pi), in [-pi, pi]: (pi - a) mod 2 pi can round up to 2 pi
+    # itself (for pi - a a tiny negative number, a one ulp above pi)
+    out = np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+    # -pi and pi are the same angle: keep the end of (-pi, pi] the docstring promises
+    # ([()] keeps a scalar a scalar)
+    return np.where(out <= -np.pi, np.pi, out)[()]
 
 
 def range_bearing_residual(y, y_pred) -> np.ndarray:

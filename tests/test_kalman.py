@@ -723,3 +723,200 @@ def test_overflow_is_an_error_not_nan():
         bf.kalman.kalman_filter(model, ys)
     with pytest.raises(ValueError, match="batch_kalman_filter: .* overflowed"):
         bf.kalman.batch_kalman_filter(model, ys[None])
+
+
+# --------------------------------------------------------------------------
+# Partly-missing measurements: an independent filter that deletes them
+# --------------------------------------------------------------------------
+
+def _knock_out(rng, ys, fraction=0.3, whole_rows=(3, 11)):
+    """About ``fraction`` of the components set to NaN at random, and the rows
+    ``whole_rows`` entirely (a missing measurement)."""
+    ys = np.array(ys, dtype=float)
+    ys[rng.random(ys.shape) < fraction] = np.nan
+    ys[..., list(whole_rows), :] = np.nan
+    return ys
+
+
+def deleting_filter(model, ys, us=None):
+    """The Kalman filter written out with the missing components deleted by hand.
+
+    Textbook form (explicit inverse, P - K C P), no bayesfilt code: on each row
+    the observed components o keep their rows of C and their rows and columns
+    of R, y_o ~ N(C_o x, R_oo); a row with no observed component is skipped.
+    Returns the fields of FilterResult with the documented full-shape
+    conventions: NaN innovations and S entries, zero gain columns, where missing.
+    """
+    n, m = model.state_dim, model.obs_dim
+    T = len(ys)
+    A, C, R = model.A, model.C, model.R
+    GQG = model.G @ model.Q @ model.G.T
+    out = {"means": np.zeros((T, n)), "covs": np.zeros((T, n, n)),
+           "pred_means": np.zeros((T, n)), "pred_covs": np.zeros((T, n, n)),
+           "innovations": np.full((T, m), np.nan), "innovation_covs": np.full((T, m, m), np.nan),
+           "gains": np.zeros((T, n, m)), "step_logliks": np.zeros(T)}
+    x, P = model.m0.copy(), model.P0.copy()
+    for t in range(T):
+        if t > 0:
+            x = A @ x + (0 if us is None else model.B @ us[t - 1])
+            P = A @ P @ A.T + GQG
+        out["pred_means"][t], out["pred_covs"][t] = x, P
+        keep = [j for j in range(m) if not np.isnan(ys[t][j])]
+        if keep:
+            Co, Ro, yo = C[keep, :], R[np.ix_(keep, keep)], ys[t][keep]
+            S = Co @ P @ Co.T + Ro
+            K = P @ Co.T @ np.linalg.inv(S)
+            r = yo - Co @ x
+            out["step_logliks"][t] = multivariate_normal(Co @ x, S).logpdf(yo)
+            x = x + K @ r
+            P = P - K @ Co @ P
+            for a, j in enumerate(keep):
+                out["innovations"][t, j] = r[a]
+                out["gains"][t, :, j] = K[:, a]
+                for b, k in enumerate(keep):
+                    out["innovation_covs"][t, j, k] = S[a, b]
+        out["means"][t], out["covs"][t] = x, P
+    return out
+
+
+def _assert_matches(res, ref, rtol=1e-8, atol=1e-10, what=""):
+    for key, want in ref.items():
+        got = np.asarray(getattr(res, key))
+        # the same NaN pattern, and the same numbers elsewhere
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(want), err_msg=f"{what} {key}")
+        np.testing.assert_allclose(got, want, rtol=rtol, atol=atol, equal_nan=True,
+                                   err_msg=f"{what} {key}")
+
+
+@pytest.mark.parametrize("with_inputs", [False, True])
+def test_partly_missing_rows_against_a_filter_that_deletes_them(with_inputs):
+    rng = np.random.default_rng(70 + with_inputs)
+    model = random_model(rng, 4, 3, q=2, p=2 if with_inputs else None)
+    T = 40
+    us = rng.standard_normal((T - 1, 2)) if with_inputs else None
+    ys = _knock_out(rng, bf.models.simulate(model, T, rng, us=us).ys)
+    partly = np.isnan(ys).any(axis=1) & ~np.isnan(ys).all(axis=1)
+    assert partly.sum() >= 10, "the test needs many partly-missing rows"
+    res = bf.kalman.kalman_filter(model, ys, us)
+    ref = deleting_filter(model, ys, us)
+    _assert_matches(res, ref)
+    np.testing.assert_allclose(res.loglik, ref["step_logliks"].sum(), rtol=1e-10)
+    np.testing.assert_array_equal(res.observed_components, ~np.isnan(ys))
+    np.testing.assert_array_equal(res.observed, ~np.isnan(ys).all(axis=1))
+    # an all-NaN row is a pure prediction, as before
+    np.testing.assert_array_equal(res.means[[3, 11]], res.pred_means[[3, 11]])
+
+
+def joint_gaussian_loglik(model, ys, us=None):
+    """log p(every observed component of ys), from the joint Gaussian of all of them
+    written out directly (no recursion): the stacked C x_t + v_t, observed entries kept."""
+    n, m = model.state_dim, model.obs_dim
+    T = len(ys)
+    A, GQG = model.A, model.G @ model.Q @ model.G.T
+    mean_x, cov_x = np.zeros(T * n), np.zeros((T * n, T * n))
+    # x_t = A^t x_0 + sum_{s<t} A^{t-1-s} (B u_s + G w_s)
+    Phi = [np.linalg.matrix_power(A, t) for t in range(T)]
+    x_det = model.m0.copy()
+    for t in range(T):
+        if t > 0:
+            x_det = A @ x_det + (0 if us is None else model.B @ us[t - 1])
+        mean_x[t * n:(t + 1) * n] = x_det
+        for s in range(t + 1):
+            # Cov(x_t, x_s) = A^t P0 A^s^T + sum_{k < s} A^{t-1-k} GQG A^{s-1-k}^T
+            c = Phi[t] @ model.P0 @ Phi[s].T
+            for k in range(s):
+                c = c + Phi[t - 1 - k] @ GQG @ Phi[s - 1 - k].T
+            cov_x[t * n:(t + 1) * n, s * n:(s + 1) * n] = c
+            cov_x[s * n:(s + 1) * n, t * n:(t + 1) * n] = c.T
+    keep = ~np.isnan(ys).ravel()
+    Cbig = np.kron(np.eye(T), model.C)[keep]
+    cov_y = Cbig @ cov_x @ Cbig.T + np.kron(np.eye(T), model.R)[np.ix_(keep, keep)]
+    return multivariate_normal(Cbig @ mean_x, cov_y).logpdf(ys.ravel()[keep])
+
+
+def test_partly_missing_loglik_equals_the_joint_gaussian():
+    rng = np.random.default_rng(77)
+    model = random_model(rng, 3, 3, q=2, p=1)
+    T = 9
+    us = rng.standard_normal((T - 1, 1))
+    ys = _knock_out(rng, bf.models.simulate(model, T, rng, us=us).ys, whole_rows=(4,))
+    res = bf.kalman.kalman_filter(model, ys, us)
+    np.testing.assert_allclose(res.loglik, joint_gaussian_loglik(model, ys, us), rtol=1e-9)
+    # and the brute force is no tautology: the same rows fully observed give another number
+    full = bf.models.simulate(model, T, np.random.default_rng(1), us=us).ys
+    np.testing.assert_allclose(bf.kalman.kalman_filter(model, full, us).loglik,
+                               joint_gaussian_loglik(model, full, us), rtol=1e-9)
+
+
+def test_partly_missing_rows_are_update_on_the_selected_components_bit_for_bit():
+    """kalman_filter on a partly-NaN row = update(x, P, y_o, C_o, R_oo) (select_observed)."""
+    rng = np.random.default_rng(78)
+    model = random_model(rng, 4, 3, q=4)
+    ys = _knock_out(rng, bf.models.simulate(model, 25, rng).ys)
+    res = bf.kalman.kalman_filter(model, ys)
+    x, P = model.m0, model.P0
+    for t in range(len(ys)):
+        if t > 0:
+            x, P = bf.kalman.predict(x, P, model.A, model.Q, G=model.G)
+        part = bf.kalman.select_observed(ys[t], model.C, model.R)
+        if part.mask.any():
+            step = bf.kalman.update(x, P, part.y, part.C, part.R)
+            x, P = step.mean, step.cov
+            assert np.array_equal(res.gains[t][:, part.mask], step.gain), t
+            assert np.array_equal(res.innovations[t][part.mask], step.innovation), t
+            assert res.step_logliks[t] == step.loglik, t
+        assert np.array_equal(res.means[t], x) and np.array_equal(res.covs[t], P), t
+
+
+def test_select_observed_and_its_errors():
+    C, R = np.arange(6.0).reshape(3, 2), np.array([[4.0, 1, 2], [1, 5, 3], [2, 3, 6]])
+    part = bf.kalman.select_observed([1.0, np.nan, 3.0], C, R)
+    np.testing.assert_array_equal(part.mask, [True, False, True])
+    np.testing.assert_array_equal(part.y, [1.0, 3.0])
+    np.testing.assert_array_equal(part.C, [[0.0, 1.0], [4.0, 5.0]])
+    np.testing.assert_array_equal(part.R, [[4.0, 2.0], [2.0, 6.0]])
+    assert bf.kalman.select_observed([np.nan] * 3, C, R).y.shape == (0,)
+    with pytest.raises(ValueError, match="y must be finite or NaN .* index 1"):
+        bf.kalman.select_observed([1.0, np.inf, 3.0], C, R)
+    with pytest.raises(ValueError, match=r"C must have shape \(3, \?\)"):
+        bf.kalman.select_observed([1.0, 2.0, 3.0], C[:2], R)
+
+
+def test_batch_with_partly_missing_rows_and_different_patterns():
+    """Sequences with their own random patterns (some shared, some all-NaN rows), with
+    per-sequence and shared inputs: batch = one kalman_filter per sequence, and both
+    = the deleting filter."""
+    rng = np.random.default_rng(79)
+    model = random_model(rng, 3, 3, q=2, p=1)
+    M, T = 7, 20
+    us = rng.standard_normal((M, T - 1, 1))
+    ys = np.stack([bf.models.simulate(model, T, rng, us=us[i]).ys for i in range(M)])
+    ys[:5] = _knock_out(rng, ys[:5], whole_rows=(2,))
+    ys[5][np.isnan(ys[0])] = np.nan          # sequence 5 shares sequence 0's pattern
+    # sequence 6 is fully observed
+    for u in (us, us[0]):
+        batch = _compare_batch(model, ys, u)
+        for i in (0, 3, 6):
+            ref = deleting_filter(model, ys[i], u if u.ndim == 2 else u[i])
+            _assert_matches(bf.kalman.kalman_filter(model, ys[i], u if u.ndim == 2 else u[i]),
+                            ref, what=f"sequence {i}")
+        np.testing.assert_array_equal(batch.observed_components, ~np.isnan(ys))
+        np.testing.assert_array_equal(batch.observed, ~np.isnan(ys).all(axis=2))
+    # one pattern shared by all, partly missing: the D = 1 path
+    ys_same = np.stack([bf.models.simulate(model, T, rng).ys for _ in range(3)])
+    ys_same[:, np.isnan(ys[0])] = np.nan
+    _compare_batch(model, ys_same, us[0])
+
+
+def test_missing_inputs_rows_and_inf_in_every_filter():
+    model = bf.models.damped_particle(B=bf.models.damped_particle().G)
+    rng = np.random.default_rng(80)
+    us = rng.standard_normal((29, 2))
+    ys = _knock_out(rng, bf.models.simulate(model, 30, rng, us=us).ys)
+    _assert_matches(bf.kalman.kalman_filter(model, ys, us), deleting_filter(model, ys, us))
+    bad = ys.copy()
+    bad[4, 1] = np.inf
+    for run in (lambda: bf.kalman.kalman_filter(model, bad, us),
+                lambda: bf.kalman.batch_kalman_filter(model, bad[None], us)):
+        with pytest.raises(ValueError, match="ys must be finite or NaN"):
+            run()
