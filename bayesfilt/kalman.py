@@ -811,20 +811,35 @@ def _batch_run(model: LinearGaussian, ys, observed, components, us) -> FilterRes
 def steady_state(model: LinearGaussian) -> SteadyState:
     r"""Steady-state covariances and gain of the Kalman filter of a time-invariant model.
 
-    The predicted covariance :math:`P = P_{t+1|t}` converges (whatever
-    :math:`P_0`) to the stabilising solution of the discrete algebraic
-    Riccati equation
+    Returns the stabilising solution of the discrete algebraic Riccati
+    equation
 
     .. math::
 
         P = A P A^T - A P C^T (C P C^T + R)^{-1} C P A^T + G Q G^T,
 
-    provided :math:`(A, C)` is detectable and :math:`(A, G Q^{1/2})` has no
-    uncontrollable mode on the unit circle. It is solved with
-    ``scipy.linalg.solve_discrete_are(A.T, C.T, G Q G^T, R)`` (the filter's
-    Riccati equation is the control one for the transposed system). Then
-    :math:`K = P C^T (C P C^T + R)^{-1}` and the filtered covariance is
-    :math:`(I - KC) P (I - KC)^T + K R K^T`.
+    which exists when :math:`(A, C)` is detectable and
+    :math:`(A, G Q^{1/2})` has no uncontrollable mode on the unit circle.
+    It is solved with ``scipy.linalg.solve_discrete_are(A.T, C.T, G Q G^T,
+    R)`` (the filter's Riccati equation is the control one for the
+    transposed system). Then :math:`K = P C^T (C P C^T + R)^{-1}` and the
+    filtered covariance is :math:`(I - KC) P (I - KC)^T + K R K^T`.
+
+    When the filter's predicted covariance :math:`P_{t+1|t}` converges to
+    it (with :math:`(A, C)` detectable and R positive definite):
+
+    * from every :math:`P_0 \succ 0` (positive definite);
+    * from every :math:`P_0 \succeq 0` (positive semi-definite, singular
+      included) when, in addition, :math:`(A, G Q^{1/2})` is stabilisable.
+
+    Not "whatever :math:`P_0`": a singular :math:`P_0` can leave an unstable
+    mode that the noise never excites at zero variance. With
+    ``A = [[2]], C = [[1]], Q = [[0]], R = [[1]]``, this function returns
+    ``pred_cov = [[3]]`` (the stabilising solution of :math:`P = 4P/(P + 1)`),
+    but from ``P0 = [[0]]`` the filter stays at :math:`P_t = 0` for ever
+    (:math:`0` is the other solution, not stabilising: with :math:`K = 0`
+    the error dynamics :math:`A (I - KC) = 2` are unstable). From every
+    ``P0 > 0`` it converges to 3.
 
     Parameters
     ----------

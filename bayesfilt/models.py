@@ -421,8 +421,18 @@ class LinearGaussian(_ModelBase):
     position_names : tuple of two str, optional
         Which two named components are planar positions (for plots).
 
+    Raises
+    ------
+    ValueError
+        If a matrix has the wrong shape or a non-finite entry, or Q, R or P0
+        is not symmetric positive semi-definite (the message names it).
+
+    Notes
+    -----
     Every matrix is checked on construction (shape, finiteness, symmetry and
-    positive semi-definiteness of Q, R, P0); the stored arrays are read-only.
+    positive semi-definiteness of Q, R, P0); the stored arrays are read-only,
+    so a model cannot change after it is built
+    (``dataclasses.replace(model, R=...)`` builds a new one).
     """
 
     A: np.ndarray
@@ -522,6 +532,16 @@ class NonlinearGaussian(_ModelBase):
     state_names, position_names
         As in :class:`LinearGaussian`.
 
+    Raises
+    ------
+    ValueError
+        If a matrix is invalid (as in :class:`LinearGaussian`), or a
+        function returns the wrong shape or does not act row by row.
+    TypeError
+        If a function is not callable or ``time_varying`` is not a bool.
+
+    Notes
+    -----
     The functions are called once on construction, at ``m0`` and at a batch
     of two distinct states near it, to check the shapes they return and that
     ``f`` and ``h`` act row by row on a batch.

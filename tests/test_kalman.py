@@ -11,6 +11,7 @@ public predict/update called step by step (kalman_filter must equal them bit for
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -597,6 +598,25 @@ def test_steady_state_without_stabilising_solution():
         bf.kalman.steady_state(model)
 
 
+def test_steady_state_needs_a_definite_P0_when_the_noise_cannot_stabilise():
+    """The docstring's counterexample: A = 2, C = 1, Q = 0, R = 1. (A, G Q^{1/2}) is not
+    stabilisable; the Riccati equation P = 4 P / (P + 1) has the stabilising solution 3 and
+    the other solution 0. From P0 = 0 the recursion stays at 0; from any P0 > 0 it goes
+    to 3. Reference: the scalar recursion by hand."""
+    model = bf.models.LinearGaussian(A=[[2.0]], C=[[1.0]], Q=[[0.0]], R=[[1.0]], m0=[0.0],
+                                     P0=[[0.0]])
+    assert bf.kalman.steady_state(model).pred_cov[0, 0] == pytest.approx(3.0, rel=1e-10)
+    ys = np.zeros((60, 1))
+    assert (bf.kalman.kalman_filter(model, ys).pred_covs == 0.0).all()
+    for p0 in (1e-6, 1.0, 1e6):
+        p = p0
+        for _ in range(59):
+            p = 4.0 * p / (p + 1.0)   # P_{t+1|t} = A^2 P R / (P + R) + Q
+        res = bf.kalman.kalman_filter(dataclasses.replace(model, P0=[[p0]]), ys)
+        assert res.pred_covs[-1, 0, 0] == pytest.approx(p, rel=1e-9)
+        assert p == pytest.approx(3.0, rel=1e-9)
+
+
 def test_steady_state_needs_definite_R():
     model = bf.models.LinearGaussian(A=[[0.5]], C=[[1.0]], Q=[[1.0]], R=[[0.0]], m0=[0.0],
                                      P0=[[1.0]])
@@ -920,3 +940,103 @@ def test_missing_inputs_rows_and_inf_in_every_filter():
                 lambda: bf.kalman.batch_kalman_filter(model, bad[None], us)):
         with pytest.raises(ValueError, match="ys must be finite or NaN"):
             run()
+
+
+# --------------------------------------------------------------------------
+# What a one-line change would break (issue 20's mutation survivors)
+# --------------------------------------------------------------------------
+
+def _mixed_scale_covariance(rng, n=5):
+    """A covariance whose entries range from about 1e-6 to 1e6: D M D with a random
+    correlation matrix M and D = diag(1e-3 .. 1e3)."""
+    B = rng.standard_normal((n, n))
+    M = B @ B.T + n * np.eye(n)
+    M /= np.sqrt(np.outer(np.diag(M), np.diag(M)))
+    D = np.diag(np.logspace(-3, 3, n))
+    P = D @ M @ D
+    return 0.5 * (P + P.T)
+
+
+def test_predict_makes_P_exactly_symmetric_at_mixed_scales():
+    """The docstring promises exact symmetry (P == P^T bit for bit), and the batch filter
+    relies on it; without the symmetrisation, rounding leaves A P A^T + G Q G^T
+    asymmetric here."""
+    rng = np.random.default_rng(90)
+    A, P = rng.standard_normal((5, 5)), _mixed_scale_covariance(rng)
+    assert 1e-7 < np.abs(P).min() and np.abs(P).max() < 1e7
+    Q = _mixed_scale_covariance(rng)
+    raw = A @ P @ A.T + Q
+    assert (raw != raw.T).any(), "the test needs a case where rounding breaks symmetry"
+    _, P_pred = bf.kalman.predict(np.zeros(5), P, A, Q)
+    assert np.array_equal(P_pred, P_pred.T)
+    np.testing.assert_allclose(P_pred, raw, rtol=1e-12, atol=1e-12 * np.abs(raw).max())
+    # the update too, and every covariance of both filters
+    C, R = rng.standard_normal((3, 5)), _mixed_scale_covariance(rng, 3)
+    step = bf.kalman.update(np.zeros(5), P_pred, np.ones(3), C, R)
+    assert np.array_equal(step.cov, step.cov.T)
+    model = bf.models.LinearGaussian(A=A / np.max(np.abs(np.linalg.eigvals(A))), C=C, Q=Q, R=R,
+                                     m0=np.zeros(5), P0=P)
+    ys = np.ones((6, 3))
+    ys[2] = np.nan
+    ys[4, 1] = np.nan
+    for res in (bf.kalman.kalman_filter(model, ys),
+                bf.kalman.batch_kalman_filter(model, np.stack([ys, ys + 1, ys[::-1]]))):
+        for covs in (res.covs, res.pred_covs):
+            assert np.array_equal(covs, np.swapaxes(covs, -1, -2))
+
+
+def test_a_huge_but_well_conditioned_S_is_accepted():
+    """The singularity test compares each squared pivot L_ii^2 with m eps S_ii: a test
+    independent of the units. With S = 1e40 + 1 (a prior variance of 1e40), the pivot
+    1e20 is far from singular; the unsquared L_ii <= m eps S_ii (1e20 <= 2e24) would
+    reject it. Reference: the scalar update in information form."""
+    step = bf.kalman.update([0.0], [[1e40]], [3.0], [[1.0]], [[1.0]])
+    assert step.mean[0] == pytest.approx(3.0, rel=1e-15)
+    assert step.cov[0, 0] == pytest.approx(1.0 / (1e-40 + 1.0), rel=1e-12)
+    model = bf.models.LinearGaussian(A=[[1.0]], C=[[1.0]], Q=[[1.0]], R=[[1.0]], m0=[0.0],
+                                     P0=[[1e40]])
+    one = bf.kalman.kalman_filter(model, np.ones((3, 1)))
+    batch = bf.kalman.batch_kalman_filter(model, np.ones((2, 3, 1)))
+    for variance in (one.covs[0, 0, 0], batch.covs[0, 0, 0, 0], batch.covs[1, 0, 0, 0]):
+        assert variance == pytest.approx(1.0 / (1e-40 + 1.0), rel=1e-12)
+
+
+def test_a_numerically_singular_S_is_rejected():
+    """S = [[1, 1], [1, 1 + eps]] (two sensors that differ by 2^-26 in one coefficient, no
+    noise): its second pivot squared is eps, below m eps S_22 = 2 eps, so S is singular at
+    the rounding level and must be refused, though Cholesky succeeds. (The unsquared
+    test, 2^-26 > 2 eps, would accept it.)"""
+    C, R = np.array([[1.0, 0.0], [1.0, 2.0 ** -26]]), np.zeros((2, 2))
+    S = C @ C.T + R
+    assert S[1, 1] == 1.0 + np.finfo(float).eps and np.linalg.cholesky(S)[1, 1] > 0
+    with pytest.raises(ValueError, match="innovation covariance S"):
+        bf.kalman.update(np.zeros(2), np.eye(2), [1.0, 1.0], C, R)
+    model = bf.models.LinearGaussian(A=np.eye(2), C=C, Q=np.eye(2), R=R, m0=np.zeros(2),
+                                     P0=np.eye(2))
+    with pytest.raises(ValueError, match="innovation covariance S .* time step 0"):
+        bf.kalman.kalman_filter(model, np.ones((2, 2)))
+    with pytest.raises(ValueError, match="innovation covariance S .* time step 0"):
+        bf.kalman.batch_kalman_filter(model, np.ones((2, 2, 2)))
+
+
+def test_non_symmetric_gain_with_n_equal_to_m():
+    """n = m = 3, so a transposed gain K^T has the right shape: only the values can tell.
+    Reference: K = P C^T (C P C^T + R)^{-1} with an explicit inverse, and the filters
+    against the deleting (textbook) filter."""
+    rng = np.random.default_rng(91)
+    model = random_model(rng, 3, 3, q=2)
+    P, C, R = random_spd(rng, 3), model.C, model.R
+    K = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+    assert np.abs(K - K.T).max() > 0.1, "the test needs a clearly non-symmetric gain"
+    y, x = rng.standard_normal(3), rng.standard_normal(3)
+    step = bf.kalman.update(x, P, y, C, R)
+    np.testing.assert_allclose(step.gain, K, **TOL)
+    np.testing.assert_allclose(step.mean, x + K @ (y - C @ x), **TOL)
+    np.testing.assert_allclose(step.cov, P - K @ C @ P, rtol=1e-9, atol=1e-12)
+    ys = bf.models.simulate(model, 30, rng).ys
+    ref = deleting_filter(model, ys)
+    _assert_matches(bf.kalman.kalman_filter(model, ys), ref)
+    batch = bf.kalman.batch_kalman_filter(model, np.stack([ys, ys]))
+    for key, want in ref.items():
+        np.testing.assert_allclose(np.asarray(getattr(batch, key))[1], want, rtol=1e-8,
+                                   atol=1e-10, err_msg=key)
