@@ -534,3 +534,35 @@ def test_partly_missing_ekf_on_a_linear_model_equals_the_kalman_filter():
     for key in kf._fields:
         np.testing.assert_allclose(getattr(ekf, key), getattr(kf, key), rtol=1e-12, atol=1e-13,
                                    err_msg=key)
+
+
+def test_ekf_predict_makes_P_exactly_symmetric_at_mixed_scales():
+    """F P F^T + G Q G^T is asymmetric by rounding here; the prediction must be P == P^T
+    bit for bit, as bf.kalman's, and so must every covariance of the filter."""
+    rng = np.random.default_rng(12)
+    n = 5
+    B = rng.standard_normal((n, n))
+    D = np.diag(np.logspace(-3, 3, n))
+    P = D @ (B @ B.T + n * np.eye(n)) @ D
+    P = 0.5 * (P + P.T)
+    J = rng.standard_normal((n, n))
+
+    def f(x):
+        return np.asarray(x) @ J.T + 0.1 * np.sin(x)
+
+    def F(x):
+        return J + 0.1 * np.diag(np.cos(x))
+
+    x = rng.standard_normal(n)
+    raw = F(x) @ P @ F(x).T + np.eye(n)
+    assert (raw != raw.T).any(), "the test needs a case where rounding breaks symmetry"
+    pred = bf.ekf.predict(x, P, f, F, np.eye(n))
+    assert np.array_equal(pred.cov, pred.cov.T)
+    np.testing.assert_allclose(pred.cov, raw, rtol=1e-12, atol=1e-12 * np.abs(raw).max())
+    model = bf.models.NonlinearGaussian(f=lambda x: 0.5 * f(x), F=lambda x: 0.5 * F(x),
+                                        h=lambda x: np.asarray(x)[..., :2],
+                                        H=lambda x: np.eye(2, n), Q=np.eye(n), R=np.eye(2),
+                                        m0=np.zeros(n), P0=P)
+    res = bf.ekf.extended_kalman_filter(model, np.ones((4, 2)))
+    for covs in (res.covs, res.pred_covs):
+        assert np.array_equal(covs, np.swapaxes(covs, 1, 2))

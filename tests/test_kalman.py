@@ -1019,6 +1019,21 @@ def test_a_numerically_singular_S_is_rejected():
         bf.kalman.batch_kalman_filter(model, np.ones((2, 2, 2)))
 
 
+def test_the_singularity_rule_at_its_boundary():
+    """The documented rule: S is refused when a squared pivot L_ii^2 <= m eps S_ii. With
+    y = (x, x + v), var v = d, P = 1, R = diag(0, d): S = [[1, 1], [1, 1 + d]] and the
+    second squared pivot is d exactly. For m = 2: d = 2 eps is refused (2 eps <= 2 eps
+    (1 + 2 eps)), d = 4 eps accepted (4 eps > 2 eps (1 + 4 eps)); a threshold of eps
+    instead of m eps would accept the first."""
+    eps = np.finfo(float).eps
+    C = np.array([[1.0], [1.0]])
+    with pytest.raises(ValueError, match="innovation covariance S"):
+        bf.kalman.update([0.0], [[1.0]], [0.0, 0.0], C, np.diag([0.0, 2 * eps]))
+    step = bf.kalman.update([0.0], [[1.0]], [0.0, 0.0], C, np.diag([0.0, 4 * eps]))
+    # the first component measures x exactly: the posterior variance is 0 (to rounding)
+    assert abs(step.cov[0, 0]) < 1e-15
+
+
 def test_non_symmetric_gain_with_n_equal_to_m():
     """n = m = 3, so a transposed gain K^T has the right shape: only the values can tell.
     Reference: K = P C^T (C P C^T + R)^{-1} with an explicit inverse, and the filters
