@@ -30,7 +30,8 @@ and a particle filter (chapters 05-06) only needs
 * ``model.sample_transition(rng, xs, u=None, t=0)``: one draw of
   :math:`x_{t+1}` for each row of ``xs`` (N, n), all particles at once;
 * ``model.measurement_logpdf(y, xs)``: :math:`\log p(y \mid x)` for each row,
-  shape (N,);
+  shape (N,); with ``observed=mask``, :math:`\log p(y_o \mid x)` of the
+  observed components o alone (a partly-missing measurement);
 * ``model.transition_logpdf(x_next, xs, u=None, t=0)``:
   :math:`\log p(x_{t+1} \mid x_t)` where the transition has a density
   (needed by a proposal other than the prior).

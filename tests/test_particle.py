@@ -540,3 +540,31 @@ def test_sis_step_accepts_normalised_log_weights_up_to_rounding():
     # within the stated tolerance, 1e-8, but not beyond it
     bf.particle.sis_step(model, rng, np.zeros((2, 2)), np.log([0.5, 0.5]) + 0.9e-8, [0.1], t=1)
     assert bf.particle.LOG_WEIGHTS_TOL == 1e-8
+
+
+class _HalfImpossible:
+    """Four fixed particles 0, 1, 2, 3 that never move; y is impossible (likelihood 0) for
+    the particles at 2 and 3 and equally likely for 0 and 1: the weights are exactly
+    (1/2, 1/2, 0, 0) and the ESS exactly 2."""
+
+    state_dim, obs_dim = 1, 1
+
+    def sample_initial(self, rng, size):
+        return np.arange(float(size))[:, None]
+
+    def sample_transition(self, rng, xs, u=None, t=0):
+        return np.array(xs, dtype=float)
+
+    def measurement_logpdf(self, y, xs):
+        return np.where(np.asarray(xs)[:, 0] < 2, 0.0, -np.inf)
+
+
+def test_resampling_happens_when_the_ess_is_below_the_threshold_not_at_it():
+    """The documented rule is ESS < ess_threshold * N: at ESS = 2 = 0.5 * 4 exactly, no
+    resampling; a threshold a hair above 0.5 resamples."""
+    model, ys = _HalfImpossible(), np.zeros((1, 1))
+    at = bf.particle.particle_filter(model, ys, 4, np.random.default_rng(0), ess_threshold=0.5)
+    assert at.ess[0] == 2.0 and not at.resampled[0]
+    above = bf.particle.particle_filter(model, ys, 4, np.random.default_rng(0),
+                                        ess_threshold=0.5 + 1e-12)
+    assert above.resampled[0]

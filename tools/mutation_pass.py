@@ -141,6 +141,12 @@ MUTATIONS = [
     Mutation("E08", E, "(_call(where, \"fun\", g, up, f0.shape) - _call(where, \"fun\", g, down, f0.shape))",
              "(_call(where, \"fun\", g, up, f0.shape) - f0)",
              "numerical_jacobian: one-sided difference over a two-sided step"),
+    # An equivalent mutant, kept to show it: a missing entry of y is given any finite
+    # value before residual() is called, and its residual is dropped; for a residual that
+    # acts component by component (the documented requirement) the value cannot matter.
+    Mutation("E09", E, "        y = np.where(o, y, y_pred)", "        y = np.where(o, y, 0.0)",
+             "EKF, partly missing: missing entries filled with 0, not the prediction "
+             "(equivalent)"),
     # --- bf.gaussian --------------------------------------------------------------
     Mutation("G01", G, "    mean = mean_x + W @ (y - mean_y)", "    mean = mean_x - W @ (y - mean_y)",
              "condition: mean moves the wrong way"),
@@ -212,6 +218,9 @@ MUTATIONS = [
     Mutation("P16", P, "        if threshold == 1.0 or ess_t[t] < threshold * N:",
              "        if threshold == 1.0 or ess_t[t] < threshold:",
              "resampling threshold a number of particles, not a fraction"),
+    Mutation("P17", P, "        if threshold == 1.0 or ess_t[t] < threshold * N:",
+             "        if threshold == 1.0 or ess_t[t] <= threshold * N:",
+             "resampling also at ESS = threshold * N (<= for <)"),
     # --- bf.resampling -----------------------------------------------------------
     Mutation("R01", R, "    below += u_k < frac", "    below += u_k <= frac",
              "boundary rule <= instead of <", issue=True),
