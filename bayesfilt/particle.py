@@ -302,7 +302,8 @@ def _log_likelihood(model, y, X, o=None):
 
     With the mask ``o`` of a partly-missing y, log p(y_o | x) of the observed components.
     """
-    with np.errstate(over="ignore"):  # (y - h(x))^2 overflowing means weight 0, handled by the caller
+    # (y - h(x))^2 overflowing means weight 0, handled by the caller
+    with np.errstate(over="ignore"):
         if o is None:
             return model.measurement_logpdf(y, X)
         return model.measurement_logpdf(y, X, observed=o)

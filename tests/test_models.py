@@ -571,7 +571,8 @@ def test_measurement_logpdf_observed_errors():
         model.measurement_logpdf([0.0, 1.0], xs, observed=[0, 1])
     with pytest.raises(ValueError, match=r"observed must be a boolean mask of shape \(2,\)"):
         model.measurement_logpdf([0.0, 1.0], xs, observed=[True])
-    with pytest.raises(ValueError, match=r"y must be finite in the observed components, got y\[1\]"):
+    with pytest.raises(ValueError,
+                       match=r"y must be finite in the observed components, got y\[1\]"):
         model.measurement_logpdf([0.0, np.nan], xs, observed=[True, True])
     singular = LG(A=np.eye(2), C=np.eye(2), Q=np.eye(2), R=[[1.0, 0.0], [0.0, 0.0]],
                   m0=np.zeros(2), P0=np.eye(2))

@@ -534,7 +534,8 @@ def test_sis_step_checks_its_log_weights_are_normalised(log_w, match):
 def test_sis_step_accepts_normalised_log_weights_up_to_rounding():
     model = linear_model()
     rng = np.random.default_rng(1)
-    for lw in (np.full(1000, -np.log(1000)), bf.particle.log_normalize(rng.standard_normal(1000))[0],
+    for lw in (np.full(1000, -np.log(1000)),
+               bf.particle.log_normalize(rng.standard_normal(1000))[0],
                np.log(np.full(3, 1 / 3)), [0.0, -np.inf]):
         bf.particle.sis_step(model, rng, np.zeros((len(lw), 2)), lw, [0.1], t=1)
     # within the stated tolerance, 1e-8, but not beyond it

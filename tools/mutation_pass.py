@@ -75,7 +75,8 @@ MUTATIONS = [
     Mutation("K08", K, "    P_post = IKC @ P @ IKC.mT + K @ R @ Kt",
              "    P_post = IKC @ P @ IKC.mT",
              "Joseph form: the K R K^T term dropped"),
-    Mutation("K09", K, "    return K, S, L, 0.5 * (P_post + P_post.mT)", "    return K, S, L, P_post",
+    Mutation("K09", K, "    return K, S, L, 0.5 * (P_post + P_post.mT)",
+             "    return K, S, L, P_post",
              "update: P no longer symmetrised"),
     Mutation("K10", K, "    IKC = eye_n - K @ C", "    IKC = eye_n + K @ C",
              "Joseph form: I + K C"),
@@ -118,9 +119,11 @@ MUTATIONS = [
              "    return components.all(axis=-1), components",
              "observed: a partly-missing row counted as missing"),
     # --- bf.ekf --------------------------------------------------------------------
-    Mutation("E01", E, "        P_pred = Fx @ P @ Fx.T + GQGt", "        P_pred = Fx @ P @ Fx + GQGt",
+    Mutation("E01", E, "        P_pred = Fx @ P @ Fx.T + GQGt",
+             "        P_pred = Fx @ P @ Fx + GQGt",
              "EKF predict: F P F instead of F P F^T"),
-    Mutation("E02", E, "    P_pred = 0.5 * (P_pred + P_pred.T)  # remove", "    P_pred = P_pred  # remove",
+    Mutation("E02", E, "    P_pred = 0.5 * (P_pred + P_pred.T)  # remove",
+             "    P_pred = P_pred  # remove",
              "EKF predict: P no longer symmetrised"),
     Mutation("E03", E, "                f, F = model.transition_functions(t - 1)",
              "                f, F = model.transition_functions(t)",
@@ -130,7 +133,8 @@ MUTATIONS = [
              "EKF: residual arguments swapped"),
     Mutation("E05", E, "        innovation = y - y_pred", "        innovation = y_pred - y",
              "EKF: innovation with the wrong sign"),
-    Mutation("E06", E, "        K, innovation, S = _embed(o, K, r, S)", "        K, _, S = _embed(o, K, r, S)",
+    Mutation("E06", E, "        K, innovation, S = _embed(o, K, r, S)",
+             "        K, _, S = _embed(o, K, r, S)",
              "EKF, partly missing: innovation recorded as 0, not NaN, where missing"),
     Mutation("E07", E, "    Fx = _call(\"ekf.predict\", \"Jacobian F\", F, x, (n, n))\n"
              "    # x_{t+1|t} = f(x_{t|t}): the mean goes through the nonlinear function itself.\n"
@@ -138,7 +142,8 @@ MUTATIONS = [
              "    x_pred = _call(\"ekf.predict\", \"f\", f, x, (n,))\n"
              "    Fx = _call(\"ekf.predict\", \"Jacobian F\", F, x_pred, (n, n))",
              "EKF predict: Jacobian at the predicted mean instead of the filtered one"),
-    Mutation("E08", E, "(_call(where, \"fun\", g, up, f0.shape) - _call(where, \"fun\", g, down, f0.shape))",
+    Mutation("E08", E, "(_call(where, \"fun\", g, up, f0.shape) "
+             "- _call(where, \"fun\", g, down, f0.shape))",
              "(_call(where, \"fun\", g, up, f0.shape) - f0)",
              "numerical_jacobian: one-sided difference over a two-sided step"),
     # An equivalent mutant, kept to show it: a missing entry of y is given any finite
@@ -148,7 +153,8 @@ MUTATIONS = [
              "EKF, partly missing: missing entries filled with 0, not the prediction "
              "(equivalent)"),
     # --- bf.gaussian --------------------------------------------------------------
-    Mutation("G01", G, "    mean = mean_x + W @ (y - mean_y)", "    mean = mean_x - W @ (y - mean_y)",
+    Mutation("G01", G, "    mean = mean_x + W @ (y - mean_y)",
+             "    mean = mean_x - W @ (y - mean_y)",
              "condition: mean moves the wrong way"),
     Mutation("G02", G, "    cov = cov_xx - W @ cov_xy.T", "    cov = cov_xx - W @ cov_xy",
              "condition: C_xy instead of C_yx"),
@@ -175,7 +181,8 @@ MUTATIONS = [
              "        return vecs * np.clip(vals, 0.0, None)",
              "singular factor: variances instead of standard deviations"),
     # --- bf.particle -------------------------------------------------------------
-    Mutation("P01", P, "        ess_t[t] = 1.0 / np.sum(W ** 2)", "        ess_t[t] = 1.0 / np.max(W)",
+    Mutation("P01", P, "        ess_t[t] = 1.0 / np.sum(W ** 2)",
+             "        ess_t[t] = 1.0 / np.max(W)",
              "particle_filter: ESS recorded as 1 / max W", issue=True),
     Mutation("P02", P, "    return shifted - log_rest, float(m + log_rest)",
              "    return shifted - log_rest, float(log_rest)",
@@ -183,7 +190,8 @@ MUTATIONS = [
     Mutation("P03", P, "    return shifted - log_rest, float(m + log_rest)",
              "    return shifted + log_rest, float(m + log_rest)",
              "log_normalize: + log_rest"),
-    Mutation("P04", P, "            log_W = np.full(N, -np.log(N))\n            resampled[t] = True",
+    Mutation("P04", P, "            log_W = np.full(N, -np.log(N))\n"
+             "            resampled[t] = True",
              "            log_W = log_W[parents]\n            resampled[t] = True",
              "resampling: weights not reset to 1/N"),
     Mutation("P05", P, "        X_new = model.sample_transition(rng, X, u, t - 1)\n"
@@ -208,7 +216,8 @@ MUTATIONS = [
     Mutation("P12", P, "    if total == np.inf:\n        w = w / w.max()",
              "    if False:\n        w = w / w.max()",
              "ess / weighted_mean_cov: overflow guard dropped"),
-    Mutation("P13", P, "    if not abs(log_sum) <= LOG_WEIGHTS_TOL:", "    if not abs(log_sum) <= 1.0:",
+    Mutation("P13", P, "    if not abs(log_sum) <= LOG_WEIGHTS_TOL:",
+             "    if not abs(log_sum) <= 1.0:",
              "sis_step: loose normalisation check"),
     Mutation("P14", P, "            X = X[parents]\n", "            X = X\n",
              "resampling: particles not replaced by their ancestors"),
@@ -248,7 +257,8 @@ MUTATIONS = [
              "    if not (u.min() >= 0.0 and u.max() <= 1.0):",
              "from_uniforms accepts u = 1"),
     # --- bf.models (the likelihood of observed components, the angle) ------------
-    Mutation("M01", M, "        L = _cholesky(\"R_oo (the block of R of the observed components)\", "
+    Mutation("M01", M, "        L = _cholesky("
+             "\"R_oo (the block of R of the observed components)\", "
              "self.R[np.ix_(o, o)])",
              "        L = _cholesky(\"R_oo (the block of R of the observed components)\", "
              "np.diag(np.diag(self.R)[o]))",
