@@ -1,0 +1,223 @@
+"""Checks of chapter 08's exercises (the unscented transform; references by bf.ukf and bf.models).
+One line per exercise::
+
+    exercise_1(points, mean_weights, cov_weights): the sigma points and weights of a 2-D Gaussian, by hand;
+    exercise_2(ut_mean, ut_var, exact_var, beta): the unscented transform of x^2, and the beta that makes it exact;
+    exercise_3(ut_variance, negative): the UT's variance of x^T x as a function of (alpha, beta, kappa), and the
+        setting that makes it negative;
+    exercise_4(mean_bearing): the weighted mean of bearings on the branch around the first one.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from scipy import linalg as sla
+
+from .. import models, ukf
+from . import (CORRECT, INCORRECT, Feedback, _combine, _frozen, _named, _not_attempted, _wrong,
+               compare_choice, compare_function, compare_number, register as _register)
+
+# the statements' numbers
+M_1, P_1, PARAMS_1 = _frozen([1.0, 2.0]), _frozen([[4.0, 2.0], [2.0, 2.0]]), (0.5, 2.0, 6.0)
+M_2, VAR_2 = 1.0, 0.5                                     # x ~ N(M_2, VAR_2), g(x) = x^2, alpha = 1, kappa = 0
+N_3 = 4                                                   # g(x) = x^T x, x ~ N(0, I_4)
+SETTINGS_3 = {"A": (1.0, 2.0, 0.0), "B": (1.0, 0.0, -1.0), "C": (0.5, 2.0, 0.0)}
+# ex 3's test inputs: the three settings, then a wide one, a tilted one, and n + kappa = 0.5 (points close in)
+CASES_3 = tuple(SETTINGS_3.values()) + ((2.0, 0.0, 1.0), (0.8, 1.0, 3.0), (1.5, 2.0, -3.5))
+# ex 4: (bearings, weights): near 0; straddling +-pi; the first exactly pi; a negative weight and a wide spread;
+# around -pi; a mean that leaves (-pi, pi] before it is wrapped
+CASES_4 = tuple((_frozen(b), _frozen(w)) for b, w in [
+    ([0.1, 0.3, -0.2], [0.5, 0.25, 0.25]),
+    ([3.1, -3.1, 3.0, -3.0, 3.05], [0.2, 0.2, 0.2, 0.2, 0.2]),
+    ([np.pi, -3.0, 3.0], [0.4, 0.3, 0.3]),
+    ([0.0, 2.0, -2.0, 1.5, -1.0], [-0.5, 0.4, 0.4, 0.35, 0.35]),
+    ([-3.0, 2.9, -2.6], [0.6, 0.2, 0.2]),
+    ([3.0, -3.0], [0.2, 0.8])])
+
+
+# Exercise 1: the sigma points and weights of a 2-D Gaussian, by hand ---------------------------------------------
+def _points_1(factor=None, scale=None, order="section") -> np.ndarray:
+    """Sigma points of N(M_1, P_1) along the columns of ``factor`` (default the lower Cholesky factor), at ``scale``
+    (default sqrt(n + lambda)), in section 2's order or interleaved (+1, -1, +2, -2)."""
+    n, (alpha, _, kappa) = 2, PARAMS_1
+    L = np.linalg.cholesky(P_1) if factor is None else factor
+    c = np.sqrt(alpha**2 * (n + kappa)) if scale is None else scale
+    plus, minus = M_1 + c * L.T, M_1 - c * L.T
+    if order == "interleaved":
+        return np.vstack([M_1] + [row for pair in zip(plus, minus) for row in pair])
+    return np.vstack([M_1, plus, minus])
+
+
+def _same_rows(a: np.ndarray, e: np.ndarray) -> bool:
+    """The same points in another order."""
+    if a.shape != e.shape:
+        return False
+    return bool(np.allclose(a[np.lexsort(a.T[::-1])], e[np.lexsort(e.T[::-1])], rtol=1e-6, atol=1e-9))
+
+
+def exercise_1(points, mean_weights, cov_weights) -> Feedback:
+    """Check ``points_1`` (5, 2), ``mean_weights_1`` (5,), ``cov_weights_1`` (5,) against ``bf.ukf.sigma_points``."""
+    ref = ukf.sigma_points(M_1, P_1, *PARAMS_1)
+    alpha, beta, kappa = PARAMS_1
+    L = np.linalg.cholesky(P_1)
+    lam = alpha**2 * (2 + kappa) - 2
+    point_mistakes = [
+        (_points_1(factor=L.T), "you used the rows of L (the columns of the upper factor U = L^T, P = U^T U); "
+                                "the points use the columns of the lower factor L (P = L L^T)."),
+        (_points_1(factor=np.real(sla.sqrtm(P_1))), "you used the symmetric square root of P_1: its points have "
+         "the same mean and covariance, but section 2's (and bf.ukf's, filterpy's) use the Cholesky factor L."),
+        (_points_1(scale=1.0), "the outer points lack the factor sqrt(n + lambda~): they sit sqrt(n + lambda~) "
+                               "standard deviations out along each column of L."),
+        (_points_1(scale=lam + 2), "the columns of L are scaled by n + lambda~; the factor is its square root."),
+        (_points_1(scale=np.sqrt(2 + kappa)), "the points use sqrt(n + kappa~); the scaled points use "
+                                              "sqrt(n + lambda~) = alpha~ sqrt(n + kappa~)."),
+        (_points_1(factor=np.asarray(P_1)), "you used the columns of P_1 itself; the points use the columns of its "
+                                            "square root L (P = L L^T)."),
+        (_points_1(order="interleaved"), "the right points in another order; section 2's order is m, then the two "
+                                         "+ points, then the two - points."),
+        (lambda a: _same_rows(a, ref.points), "the right points in another order; section 2's order is m, then "
+                                              "m + ... L[:, 0], m + ... L[:, 1], then the same with -."),
+    ]
+    mean_mistakes = [
+        (ref.cov_weights, "these are the covariance weights W^c; the mean weights W^m differ at the centre."),
+        (np.r_[kappa / (2 + kappa), np.full(4, 0.5 / (2 + kappa))], "you used kappa~ in place of lambda~ = "
+         "alpha~^2 (n + kappa~) - n (the unscaled points of Julier & Uhlmann)."),
+        (lambda a: a.shape == (5,) and not np.isclose(a.sum(), 1.0), "the mean weights must sum to 1."),
+    ]
+    w0 = ref.mean_weights[0]
+    cov_mistakes = [
+        (ref.mean_weights, "these are the mean weights; the covariance weights add 1 - alpha~^2 + beta~ at the "
+                           "centre: W^c_0 = W^m_0 + 1 - alpha~^2 + beta~."),
+        (np.r_[w0 + beta, ref.cov_weights[1:]], "W^c_0 lacks the 1 - alpha~^2 of W^m_0 + 1 - alpha~^2 + beta~."),
+        (np.r_[w0 + 1 + beta, ref.cov_weights[1:]], "W^c_0 lacks the - alpha~^2 of W^m_0 + 1 - alpha~^2 + beta~."),
+        (np.r_[w0 + 1 - alpha + beta, ref.cov_weights[1:]], "W^c_0 has 1 - alpha~ + beta~; the term is "
+                                                            "1 - alpha~^2 + beta~ (alpha~ squared)."),
+        (np.r_[w0 + 1 - alpha**2, ref.cov_weights[1:]], "W^c_0 lacks beta~: W^c_0 = W^m_0 + 1 - alpha~^2 + beta~."),
+    ]
+    return _combine([
+        ("points_1", _named(points, ref.points, "points_1", point_mistakes)),
+        ("mean_weights_1", _named(mean_weights, ref.mean_weights, "mean_weights_1", mean_mistakes)),
+        ("cov_weights_1", _named(cov_weights, ref.cov_weights, "cov_weights_1", cov_mistakes))])
+
+
+# Exercise 2: the unscented transform of x^2 ----------------------------------------------------------------------
+def _number(answer, expected, what, mistakes) -> Feedback:
+    """compare_number; an answer equal to a named wrong value gets that value's message."""
+    fb = compare_number(answer, expected, what)
+    if fb.status != INCORRECT or " must be " in fb.message or "NaN" in fb.message:
+        return fb
+    value = float(np.ravel(answer)[0]) if isinstance(answer, np.ndarray) else float(answer)
+    for wrong, message in mistakes:
+        if not np.isclose(wrong, expected) and np.isclose(value, wrong, rtol=1e-6, atol=1e-9):
+            return _wrong(f"{what}: {message}")
+    return fb
+
+
+def exercise_2(ut_mean, ut_var, exact_var, beta) -> Feedback:
+    """Check ``ut_mean_2``, ``ut_var_2`` (beta = 0), ``exact_var_2`` and ``beta_2`` against bf.ukf."""
+    m, v, s = M_2, VAR_2, np.sqrt(VAR_2)
+    ut = ukf.unscented_transform(lambda x: x**2, [m], [[v]], 1.0, 0.0, 0.0)
+    # the exact variance of x^2: E[(2 m e + e^2 - v)^2] = 4 m^2 v + E[e^4] - v^2 = 4 m^2 v + 2 v^2
+    exact = 4 * m**2 * v + 2 * v**2
+    # beta enters the UT's variance as beta (Y_0 - y_hat)^2: the beta that closes the gap
+    centre = (ut.images[0, 0] - ut.mean[0]) ** 2
+    beta_ref = (exact - ut.cov[0, 0]) / centre
+    at_variance = ukf.unscented_transform(lambda x: x**2, [m], [[v**2]], 1.0, 0.0, 0.0)  # points at m +- v
+    return _combine([
+        ("ut_mean_2", _number(ut_mean, ut.mean[0], "ut_mean_2", [
+            (m**2, "that is g(m), the tangent's (EKF's) mean; the UT averages g over the three points."),
+            (at_variance.mean[0], "the points sit at m +- sigma, sigma = sqrt(0.5), not at m +- 0.5 (the variance)."),
+            ((m + s) ** 2, "that is g at one outer point; the UT's mean is the weighted average over all three.")])),
+        ("ut_var_2", _number(ut_var, ut.cov[0, 0], "ut_var_2", [
+            (0.5 * ((m + s) ** 4 + (m - s) ** 4), "that is the weighted mean of g^2, not the variance: take the "
+                                                 "weighted mean of (Y_j - y_hat)^2."),
+            (exact, "that is the exact variance; with beta~ = 0 the UT's is smaller (the centre weight W^c_0 is 0)."),
+            (at_variance.cov[0, 0], "the points sit at m +- sigma, sigma = sqrt(0.5), not at m +- 0.5."),
+            (ut.cov[0, 0] + 2 * centre, "that is the UT's variance with beta~ = 2; the question asks for beta~ = 0.")])),
+        ("exact_var_2", _number(exact_var, exact, "exact_var_2", [
+            (4 * m**2 * v, "the 2 sigma^4 from E[(e^2 - sigma^2)^2] = E[e^4] - sigma^4 = 3 sigma^4 - sigma^4 is "
+                           "missing."),
+            (4 * m**2 * v + 3 * v**2, "E[(e^2 - sigma^2)^2] = E[e^4] - sigma^4 = 2 sigma^4, not 3 sigma^4."),
+            (m**4 + 6 * m**2 * v + 3 * v**2, "that is E[x^4], the second moment of x^2; subtract (E[x^2])^2."),
+            (4 * m**2 * v + v**2, "use E[e^4] = 3 sigma^4 for a Gaussian: E[(e^2 - sigma^2)^2] = 2 sigma^4.")])),
+        ("beta_2", _number(beta, beta_ref, "beta_2", [
+            (0.0, "with beta~ = 0 the UT's variance misses 2 sigma^4."),
+            (3.0, "beta~ enters as beta~ (Y_0 - y_hat)^2 = beta~ sigma^4; the gap to the exact variance is "
+                  "2 sigma^4.")]))])
+
+
+# Exercise 3: the UT's variance of x^T x, and a negative weight --------------------------------------------------
+def _ut_variance(alpha, beta, kappa) -> float:
+    """The UT's variance of g(x) = x^T x for x ~ N(0, I_4), by bf.ukf."""
+    g = lambda X: (X**2).sum(axis=-1)  # noqa: E731
+    return float(ukf.unscented_transform(g, np.zeros(N_3), np.eye(N_3), alpha, beta, kappa).cov[0, 0])
+
+
+def _variant_3(alpha, beta, kappa, centre="cov", outer=True, about="mean"):
+    """The closed form W^c_0 n^2 + n (c^2 - n)^2 / c^2 (c^2 = n + lambda), or a mistake's variant."""
+    n, c2 = N_3, alpha**2 * (N_3 + kappa)
+    w0 = 1 - n / c2 + ((1 - alpha**2 + beta) if centre == "cov" else 0.0)
+    if about == "zero":                                   # sum_j W^c_j Y_j^2: not centred
+        return n * c2
+    return w0 * n**2 + (n * (c2 - n) ** 2 / c2 if outer else 0.0)
+
+
+def exercise_3(ut_variance, negative) -> Feedback:
+    """Check ``ut_variance(alpha, beta, kappa)`` on CASES_3 against bf.ukf, and ``negative_3``."""
+    fun = compare_function(ut_variance, _ut_variance, [tuple(c) for c in CASES_3], what="ut_variance",
+                           compare=compare_number, mistakes=[
+        (lambda a, b, k: _variant_3(a, b, k, centre="mean"), "the centre's term uses the mean weight W^m_0; the "
+                                                             "variance uses W^c_0 = W^m_0 + 1 - alpha~^2 + beta~."),
+        (lambda a, b, k: _variant_3(a, b, k, outer=False), "the 2n outer points' term n (n + lambda~ - n)^2 / "
+                                                           "(n + lambda~) is missing."),
+        (lambda a, b, k: _variant_3(a, b, k, about="zero"), "the squares are taken about 0, not about the mean "
+                                                            "y_hat = n: centre the images first.")])
+    variances = {k: _ut_variance(*v) for k, v in SETTINGS_3.items()}
+    expected = next(k for k, v in variances.items() if v < 0)
+    choice = compare_choice(negative, expected, list(SETTINGS_3), what="negative_3",
+                            hint="evaluate your ut_variance at the three settings; only one has a negative "
+                                 "centre weight W^c_0 together with a large centre term.")
+    return _combine([("ut_variance", fun), ("negative_3", choice)])
+
+
+# Exercise 4: the mean of bearings ---------------------------------------------------------------------------------
+def _mean_bearing(bearings, weights) -> float:
+    """bf.ukf's mean of the bearings: the images (range 1, bearing) with the range-bearing residual."""
+    images = np.column_stack([np.ones(len(bearings)), bearings])
+    mean, _ = ukf._mean_and_spread(images, np.asarray(weights, float), models.range_bearing_residual)
+    return float(mean[1])
+
+
+def _on_the_circle(out, expected, what="the output", rtol=1e-6, atol=1e-9) -> Feedback:
+    """A bearing in [-pi, pi] equal to the reference up to a whole turn (pi and -pi are the same bearing)."""
+    if isinstance(out, np.ndarray) and out.size == 1:
+        out = out.item()
+    if out is None:
+        return _not_attempted(what)
+    if isinstance(out, (bool, np.bool_)) or not isinstance(out, numbers.Real) or not np.isfinite(float(out)):
+        return _wrong(f"{what} must be a single finite number (a float), got {type(out).__name__}.")
+    a = float(out)
+    if abs(a) > np.pi + 1e-12:
+        return _wrong(f"{what} is outside (-pi, pi]: wrap the mean back into range (bf.models.wrap_angle).")
+    gap = abs(float(models.wrap_angle(a - float(expected))))
+    return Feedback(CORRECT, f"{what} matches the reference.") if gap <= atol + rtol * np.pi else _wrong(
+        f"{what} differs from the reference by {gap:.3g} rad.")
+
+
+def exercise_4(mean_bearing) -> Feedback:
+    """Check ``mean_bearing(bearings, weights)`` on CASES_4 against bf.ukf's mean of bearings."""
+    wrap = models.wrap_angle
+    return compare_function(mean_bearing, _mean_bearing, [tuple(c) for c in CASES_4], what="mean_bearing",
+                            compare=_on_the_circle, mistakes=[
+        (lambda b, w: float(w @ b), "the plain weighted mean of the bearings: across the +-pi cut it points the "
+                                    "opposite way; average the differences from the first bearing, wrapped."),
+        (lambda b, w: float(np.arctan2(w @ np.sin(b), w @ np.cos(b))), "a circular mean (the angle of "
+         "sum_j W_j e^{i beta_j}): a different number when the bearings spread or a weight is negative; average "
+         "the wrapped differences from the first bearing."),
+        (lambda b, w: float(b[0] + w @ (b - b[0])), "the differences from the first bearing are not wrapped: "
+                                                    "wrap each one into (-pi, pi] before averaging.")])
+
+
+_register(globals())
