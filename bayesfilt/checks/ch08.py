@@ -16,7 +16,7 @@ import numpy as np
 from scipy import linalg as sla
 
 from .. import models, ukf
-from . import (CORRECT, INCORRECT, Feedback, _combine, _frozen, _named, _not_attempted, _wrong,
+from . import (CORRECT, INCORRECT, Feedback, _combine, _frozen, _hinted, _named, _not_attempted, _wrong,
                compare_choice, compare_function, compare_number, register as _register)
 
 # the statements' numbers
@@ -96,10 +96,13 @@ def exercise_1(points, mean_weights, cov_weights) -> Feedback:
                                                             "1 - alpha~^2 + beta~ (alpha~ squared)."),
         (np.r_[w0 + 1 - alpha**2, ref.cov_weights[1:]], "W^c_0 lacks beta~: W^c_0 = W^m_0 + 1 - alpha~^2 + beta~."),
     ]
+    def named(answer, expected, what, mistakes):
+        return _named(answer, expected, what, [(wrong, f"{what}: {message}") for wrong, message in mistakes])
+
     return _combine([
-        ("points_1", _named(points, ref.points, "points_1", point_mistakes)),
-        ("mean_weights_1", _named(mean_weights, ref.mean_weights, "mean_weights_1", mean_mistakes)),
-        ("cov_weights_1", _named(cov_weights, ref.cov_weights, "cov_weights_1", cov_mistakes))])
+        ("points_1", named(points, ref.points, "points_1", point_mistakes)),
+        ("mean_weights_1", named(mean_weights, ref.mean_weights, "mean_weights_1", mean_mistakes)),
+        ("cov_weights_1", named(cov_weights, ref.cov_weights, "cov_weights_1", cov_mistakes))])
 
 
 # Exercise 2: the unscented transform of x^2 ----------------------------------------------------------------------
@@ -166,7 +169,8 @@ def _variant_3(alpha, beta, kappa, centre="cov", outer=True, about="mean"):
 
 def exercise_3(ut_variance, negative) -> Feedback:
     """Check ``ut_variance(alpha, beta, kappa)`` on CASES_3 against bf.ukf, and ``negative_3``."""
-    fun = compare_function(ut_variance, _ut_variance, [tuple(c) for c in CASES_3], what="ut_variance",
+    quiet = _hinted(ut_variance, lambda exc, args: "")   # a failure that cannot even print itself
+    fun = compare_function(quiet, _ut_variance, [tuple(c) for c in CASES_3], what="ut_variance",
                            compare=compare_number, mistakes=[
         (lambda a, b, k: _variant_3(a, b, k, centre="mean"), "the centre's term uses the mean weight W^m_0; the "
                                                              "variance uses W^c_0 = W^m_0 + 1 - alpha~^2 + beta~."),
@@ -208,16 +212,15 @@ def _on_the_circle(out, expected, what="the output", rtol=1e-6, atol=1e-9) -> Fe
 
 def exercise_4(mean_bearing) -> Feedback:
     """Check ``mean_bearing(bearings, weights)`` on CASES_4 against bf.ukf's mean of bearings."""
-    wrap = models.wrap_angle
-    return compare_function(mean_bearing, _mean_bearing, [tuple(c) for c in CASES_4], what="mean_bearing",
+    quiet = _hinted(mean_bearing, lambda exc, args: "")  # a failure that cannot even print itself
+    return compare_function(quiet, _mean_bearing, [tuple(c) for c in CASES_4], what="mean_bearing",
                             compare=_on_the_circle, mistakes=[
-        (lambda b, w: float(w @ b), "the plain weighted mean of the bearings: across the +-pi cut it points the "
-                                    "opposite way; average the differences from the first bearing, wrapped."),
+        (lambda b, w: float(w @ b), "the plain weighted mean of the bearings (the same as the mean of their "
+                                    "unwrapped differences from the first): across the +-pi cut it points the "
+                                    "opposite way; wrap each difference from the first bearing before averaging."),
         (lambda b, w: float(np.arctan2(w @ np.sin(b), w @ np.cos(b))), "a circular mean (the angle of "
          "sum_j W_j e^{i beta_j}): a different number when the bearings spread or a weight is negative; average "
-         "the wrapped differences from the first bearing."),
-        (lambda b, w: float(b[0] + w @ (b - b[0])), "the differences from the first bearing are not wrapped: "
-                                                    "wrap each one into (-pi, pi] before averaging.")])
+         "the wrapped differences from the first bearing.")])
 
 
 _register(globals())
