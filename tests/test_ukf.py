@@ -443,7 +443,7 @@ def test_unwrapped_bearing_throws_the_bearing_away_at_the_cut():
 
 
 def test_a_negative_centre_weight_can_make_the_covariance_indefinite_in_filterpy_too(kay_run):
-    """alpha = 0.2 on Kay's vehicle: W^m_0 = 1 - 4 / 0.16 = -24. After two updates P_{2|2} has
+    """alpha = 0.2 on Kay's vehicle: W^m_0 = 1 - 4 / 0.16 = -24. After three updates P_{2|2} has
     a large negative eigenvalue, in filterpy as in bayesfilt (the algorithm, not the code)."""
     model, sim = kay_run
     params = (0.2, 2.0, 0.0)
