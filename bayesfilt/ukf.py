@@ -24,16 +24,16 @@ with :math:`c^2 = n + \lambda = \alpha^2 (n + \kappa)`, and their weights are
     W^c_0 = W^m_0 + 1 - \alpha^2 + \beta, \qquad
     W^m_j = W^c_j = \frac{1}{2(n + \lambda)} \quad (j \ge 1).
 
-Whatever the three parameters, these points have mean m and covariance P
-(weighted by :math:`W^m` and by the :math:`W^m_j`, :math:`j \ge 1`, the
-outer points alone give :math:`\sum_j L_{:,j} L_{:,j}^T = P`). Push each
-through g, :math:`\mathcal Y_j = g(\mathcal X_j)`, and take
+Whatever the three parameters, the weighted points have mean m and
+covariance P: the centre adds nothing to the covariance, and the 2n outer
+points give :math:`\sum_j L_{:,j} L_{:,j}^T = L L^T = P`. Push each through
+g, :math:`\mathcal Y_j = g(\mathcal X_j)`, and take
 
 .. math::
 
     \hat y = \sum_j W^m_j \mathcal Y_j, \qquad
-    P_y = \sum_j W^c_j (\mathcal Y_j - \hat y)(\mathcal Y_j - \hat y)^T, \qquad
-    P_{xy} = \sum_j W^c_j (\mathcal X_j - m)(\mathcal Y_j - \hat y)^T.
+    \Sigma_{yy} = \sum_j W^c_j (\mathcal Y_j - \hat y)(\mathcal Y_j - \hat y)^T, \qquad
+    \Sigma_{xy} = \sum_j W^c_j (\mathcal X_j - m)(\mathcal Y_j - \hat y)^T.
 
 The UT is exact for a linear g (mean and covariance), its mean is exact for
 any quadratic g (indeed any cubic: odd powers of a symmetric point set
@@ -75,17 +75,17 @@ conditions the resulting joint Gaussian of :math:`(x_t, y_t)` on
 
 .. math::
 
-    S_t = P_y + R, \qquad K_t = P_{xy} S_t^{-1}, \qquad
+    S_t = \Sigma_{yy} + R, \qquad K_t = \Sigma_{xy} S_t^{-1}, \qquad
     \hat x_{t|t} = \hat x_{t|t-1} + K_t (y_t - \hat y_{t|t-1}), \qquad
     P_{t|t} = P_{t|t-1} - K_t S_t K_t^T.
 
 It is computed by ``bf.kalman``'s own update kernel (the Joseph form, a
 Cholesky solve, the log-likelihood), read as a *statistical linear
 regression* (Lefebvre, Bruyninckx & De Schutter 2002): the slope of the
-images on the points, :math:`\bar C = P_{xy}^T P^{-1}`, plays the part of
+images on the points, :math:`\bar C = \Sigma_{xy}^T P^{-1}`, plays the part of
 the measurement matrix C, and the scatter of the images about that line,
-:math:`\Omega = P_y - \bar C P_{xy}`, is added to R. Then
-:math:`\bar C P \bar C^T + R + \Omega = S_t` and :math:`P \bar C^T = P_{xy}`,
+:math:`\Omega = \Sigma_{yy} - \bar C \Sigma_{xy}`, is added to R. Then
+:math:`\bar C P \bar C^T + R + \Omega = S_t` and :math:`P \bar C^T = \Sigma_{xy}`,
 so the Kalman update with :math:`(\bar C, R + \Omega)` is the update above.
 For a linear h the regression line is h itself and :math:`\Omega = 0`: the
 UKF is then the Kalman filter, to rounding.
@@ -164,8 +164,8 @@ class SigmaPoints(NamedTuple):
 class Transformed(NamedTuple):
     """The unscented transform of N(m, P) through g (see :func:`unscented_transform`).
 
-    mean (k,) y_hat; cov (k, k) P_y (+ the noise covariance, if given);
-    cross_cov (n, k) P_xy, the covariance of x and g(x); sigmas the
+    mean (k,) y_hat; cov (k, k) Sigma_yy (+ the noise covariance, if given);
+    cross_cov (n, k) Sigma_xy, the covariance of x and g(x); sigmas the
     :class:`SigmaPoints`; images (2n+1, k) g of each sigma point.
     """
 
@@ -320,13 +320,13 @@ def _mean_and_spread(images: np.ndarray, wm: np.ndarray, residual):
 
 
 def _moments(points, images, x, w: _Weights, residual):
-    """y_hat (k,), P_y (k, k) without noise, P_xy (n, k) of the images of the sigma points."""
+    """y_hat (k,), Sigma_yy (k, k) without noise, Sigma_xy (n, k) of the sigma points' images."""
     y_hat, dy = _mean_and_spread(images, w.m, residual)
-    # P_y = sum_j W^c_j (Y_j - y_hat)(Y_j - y_hat)^T
-    P_y = (w.c * dy.T) @ dy
-    # P_xy = sum_j W^c_j (X_j - m)(Y_j - y_hat)^T
-    P_xy = (w.c * (points - x).T) @ dy
-    return y_hat, 0.5 * (P_y + P_y.T), P_xy
+    # Sigma_yy = sum_j W^c_j (Y_j - y_hat)(Y_j - y_hat)^T
+    Syy = (w.c * dy.T) @ dy
+    # Sigma_xy = sum_j W^c_j (X_j - m)(Y_j - y_hat)^T
+    Sxy = (w.c * (points - x).T) @ dy
+    return y_hat, 0.5 * (Syy + Syy.T), Sxy
 
 
 def _as_residual(residual):
@@ -342,13 +342,13 @@ def _as_residual(residual):
 
 def unscented_transform(fun, mean, cov, alpha=1.0, beta=2.0, kappa=0.0, noise_cov=None,
                         residual=None) -> Transformed:
-    r"""Push :math:`N(m, P)` through ``fun`` by its sigma points: mean, covariance, cross-covariance.
+    r"""Push :math:`N(m, P)` through ``fun`` by sigma points: mean, covariance, cross-covariance.
 
     .. math::
 
         \hat y = \sum_j W^m_j \mathcal Y_j, \quad
-        P_y = \sum_j W^c_j (\mathcal Y_j - \hat y)(\mathcal Y_j - \hat y)^T + N, \quad
-        P_{xy} = \sum_j W^c_j (\mathcal X_j - m)(\mathcal Y_j - \hat y)^T,
+        \Sigma_{yy} = \sum_j W^c_j (\mathcal Y_j - \hat y)(\mathcal Y_j - \hat y)^T + N, \quad
+        \Sigma_{xy} = \sum_j W^c_j (\mathcal X_j - m)(\mathcal Y_j - \hat y)^T,
 
     with :math:`\mathcal Y_j = g(\mathcal X_j)` and N the optional noise
     covariance (Särkkä 2013, Algorithm 5.12, additive noise). Exact for a
@@ -366,7 +366,7 @@ def unscented_transform(fun, mean, cov, alpha=1.0, beta=2.0, kappa=0.0, noise_co
     alpha, beta, kappa : float
         As in :func:`sigma_points`.
     noise_cov : array_like, shape (k, k), optional
-        Added to :math:`P_y` (additive noise, e.g. ``G Q G^T`` or ``R``).
+        Added to :math:`\Sigma_{yy}` (additive noise, e.g. ``G Q G^T`` or ``R``).
     residual : callable, optional
         ``residual(a, b)`` -> a - b on the last axis, wrapped where a component
         is an angle (e.g. ``bf.models.range_bearing_residual``); then the mean
@@ -404,10 +404,10 @@ def unscented_transform(fun, mean, cov, alpha=1.0, beta=2.0, kappa=0.0, noise_co
     k = images.shape[1]
     res = _as_residual(residual)
     w = _Weights(sp.mean_weights, sp.cov_weights, 0.0)
-    y_hat, P_y, P_xy = _moments(sp.points, images, m, w, res)
+    y_hat, Syy, Sxy = _moments(sp.points, images, m, w, res)
     if noise_cov is not None:
-        P_y = P_y + as_covariance("noise_cov", noise_cov, k)
-    return Transformed(y_hat, P_y, P_xy, sp, images)
+        Syy = Syy + as_covariance("noise_cov", noise_cov, k)
+    return Transformed(y_hat, Syy, Sxy, sp, images)
 
 
 # --------------------------------------------------------------------------
@@ -460,7 +460,7 @@ def _update(x, P, y, h, R, residual, w: _Weights, o=None) -> Update:
     # new sigma points, drawn from the prediction (Algorithm 5.14), and their images
     X = _points(x, L, w.scale)
     Y = _call("h", h, X, m)
-    y_hat, P_y, P_xy = _moments(X, Y, x, w, residual)
+    y_hat, Syy, Sxy = _moments(X, Y, x, w, residual)
     if o is not None:
         # a missing entry is given its prediction, so that the residual sees finite numbers
         y = np.where(o, y, y_hat)
@@ -469,13 +469,13 @@ def _update(x, P, y, h, R, residual, w: _Weights, o=None) -> Update:
     R_o, r_o = R, r
     if o is not None:
         # y_o = h_o(x) + v_o, v_o ~ N(0, R_oo): the observed components' rows and block
-        P_y, P_xy, R_o, r_o = P_y[np.ix_(o, o)], P_xy[:, o], R[np.ix_(o, o)], r[o]
+        Syy, Sxy, R_o, r_o = Syy[np.ix_(o, o)], Sxy[:, o], R[np.ix_(o, o)], r[o]
     # Statistical linear regression of the images on the points: the slope
-    # C = P_xy^T P^{-1} (a Cholesky solve with the factor at hand) and the scatter about it,
-    # Omega = P_y - C P_xy. Chapter 02's update with (C, R + Omega) is the UKF's update:
-    # S = C P C^T + R + Omega = P_y + R, K = P C^T S^{-1} = P_xy S^{-1}, P - K S K^T.
-    C = cho_solve((L, True), P_xy).T
-    Omega = P_y - C @ P_xy
+    # C = Sigma_xy^T P^{-1} (a Cholesky solve with the factor at hand) and the scatter about
+    # it, Omega = Sigma_yy - C Sigma_xy. Chapter 02's update with (C, R + Omega) is the UKF's:
+    # S = C P C^T + R + Omega = Sigma_yy + R, K = P C^T S^{-1} = Sigma_xy S^{-1}, P - K S K^T.
+    C = cho_solve((L, True), Sxy).T
+    Omega = Syy - C @ Sxy
     R_eff = R_o + 0.5 * (Omega + Omega.T)
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         try:
@@ -538,7 +538,7 @@ def predict(x, P, f, Q, G=None, alpha=1.0, beta=2.0, kappa=0.0) -> Prediction:
 
 
 def update(x, P, y, h, R, alpha=1.0, beta=2.0, kappa=0.0, residual=None) -> Update:
-    r"""UKF measurement update: condition the UT's joint Gaussian of :math:`(x_t, y_t)` on :math:`y_t`.
+    r"""UKF measurement update: condition the UT's joint Gaussian of :math:`(x_t, y_t)` on y_t.
 
     With :math:`\mathcal X_j` the sigma points of :math:`N(\hat x_{t|t-1},
     P_{t|t-1})` and :math:`\mathcal Y_j = h(\mathcal X_j)` (Särkkä 2013,
@@ -548,9 +548,9 @@ def update(x, P, y, h, R, alpha=1.0, beta=2.0, kappa=0.0, residual=None) -> Upda
 
         \hat y = \sum_j W^m_j \mathcal Y_j, \quad
         S = \sum_j W^c_j (\mathcal Y_j - \hat y)(\mathcal Y_j - \hat y)^T + R, \quad
-        P_{xy} = \sum_j W^c_j (\mathcal X_j - \hat x_{t|t-1})(\mathcal Y_j - \hat y)^T,
+        \Sigma_{xy} = \sum_j W^c_j (\mathcal X_j - \hat x_{t|t-1})(\mathcal Y_j - \hat y)^T,
 
-        K = P_{xy} S^{-1}, \quad \hat x_{t|t} = \hat x_{t|t-1} + K (y - \hat y), \quad
+        K = \Sigma_{xy} S^{-1}, \quad \hat x_{t|t} = \hat x_{t|t-1} + K (y - \hat y), \quad
         P_{t|t} = P_{t|t-1} - K S K^T.
 
     Computed with ``bf.kalman``'s update kernel (see the module docstring).

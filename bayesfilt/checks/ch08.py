@@ -136,9 +136,9 @@ def exercise_2(ut_mean, ut_var, exact_var, beta) -> Feedback:
         ("ut_var_2", _number(ut_var, ut.cov[0, 0], "ut_var_2", [
             (0.5 * ((m + s) ** 4 + (m - s) ** 4), "that is the weighted mean of g^2, not the variance: take the "
                                                  "weighted mean of (Y_j - y_hat)^2."),
-            (exact, "that is the exact variance; with beta~ = 0 the UT's is smaller (the centre weight W^c_0 is 0)."),
-            (at_variance.cov[0, 0], "the points sit at m +- sigma, sigma = sqrt(0.5), not at m +- 0.5."),
-            (ut.cov[0, 0] + 2 * centre, "that is the UT's variance with beta~ = 2; the question asks for beta~ = 0.")])),
+            (exact, "that is the exact variance (and the UT's with beta~ = 2); with beta~ = 0 the UT's is "
+                    "smaller (the centre weight W^c_0 is 0)."),
+            (at_variance.cov[0, 0], "the points sit at m +- sigma, sigma = sqrt(0.5), not at m +- 0.5.")])),
         ("exact_var_2", _number(exact_var, exact, "exact_var_2", [
             (4 * m**2 * v, "the 2 sigma^4 from E[(e^2 - sigma^2)^2] = E[e^4] - sigma^4 = 3 sigma^4 - sigma^4 is "
                            "missing."),
