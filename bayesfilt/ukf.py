@@ -110,7 +110,7 @@ subtracts and wraps, e.g. ``bf.models.range_bearing_residual``) the filter
 
 A circular mean (the angle of :math:`\sum_j W^m_j e^{i \beta_j}`) is not
 used: it differs from the weighted mean of the angles when they spread, and
-means nothing with a negative weight. The state is averaged plainly (a
+with a negative weight it is no longer an average of directions. The state is averaged plainly (a
 ``NonlinearGaussian`` has no residual for the state).
 
 **Square root.** The points use the *lower* Cholesky factor, :math:`P = L
@@ -120,7 +120,9 @@ L^T`, and its *columns*, as Särkkä does: then the outer points contribute
 *upper* factor :math:`U = L^T` (:math:`P = U^T U`), and its *rows*: the
 same vectors, so the same points. (Any S with :math:`S S^T = P` gives the
 right first two moments; a different S, such as the symmetric square root,
-gives different points and different higher-order errors.) A covariance
+gives different points and different higher-order errors. So the UT of a
+nonlinear g depends on the coordinates the state is written in, not only on
+the Gaussian: rotate the state and the points do not simply rotate.) A covariance
 that is not positive definite has no Cholesky factor: the functions say so,
 naming it, rather than returning NaN.
 
@@ -141,7 +143,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import cho_solve
 
-from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_vector, check_callable,
+from ._checks import (as_covariance, as_matrix, as_noise_gain, as_vector, check_callable,
                       check_output, require_finite)
 from .kalman import FilterResult, Prediction, Update, _correct
 
