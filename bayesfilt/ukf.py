@@ -17,6 +17,8 @@ factor :math:`P = L L^T` and its columns :math:`L_{:,j}`. The 2n + 1
     \mathcal X_{n+j} = m - c\,L_{:,j} \quad (j = 1, \dots, n),
 
 with :math:`c^2 = n + \lambda = \alpha^2 (n + \kappa)`, and their weights are
+(the *scaled* points of Julier 2002, "The scaled unscented transformation",
+in the form of Wan & van der Merwe 2000)
 
 .. math::
 
@@ -35,14 +37,38 @@ g, :math:`\mathcal Y_j = g(\mathcal X_j)`, and take
     \Sigma_{yy} = \sum_j W^c_j (\mathcal Y_j - \hat y)(\mathcal Y_j - \hat y)^T, \qquad
     \Sigma_{xy} = \sum_j W^c_j (\mathcal X_j - m)(\mathcal Y_j - \hat y)^T.
 
-The UT is exact for a linear g (mean and covariance), its mean is exact for
-any quadratic g (indeed any cubic: odd powers of a symmetric point set
-cancel), and :math:`\beta = 2` makes part of the fourth-order term of a
-Gaussian right. What the parameters do: :math:`\alpha` (and :math:`\kappa`)
-set how far out the points sit, c standard deviations along each column of
-L; a small :math:`\alpha` gives points near m (the UT then tends to a
-second-order expansion of g at m) and a large negative :math:`W^m_0`;
-:math:`\beta` adds weight to the central point in the covariance only.
+**How accurate.** The UT is exact for a linear g (mean and covariance).
+For a Gaussian its mean is exact through third order: the points share the
+Gaussian's moments up to the third (the odd ones vanish for any symmetric
+point set), so the mean is exact for any polynomial g of degree at most 3.
+Its covariance involves moments up to the fourth and is right only through
+second order. In one dimension the UT's variance of a quadratic
+:math:`a e + b e^2` (e = x - m) is :math:`a^2 \sigma^2 + b^2 \sigma^4
+(\alpha^2 \kappa + \beta)`, exact when :math:`\alpha^2 \kappa + \beta = 2`;
+in n dimensions no setting makes it exact for every quadratic (for
+:math:`x^T x`, x ~ N(0, I_4), the defaults give 32 against the exact 8: the
+points have no cross moments :math:`E[e_i^2 e_j^2]`). In one dimension the
+mean of a quartic is exact only for :math:`c^2 = 3` (Julier's choice
+alpha = 1, kappa = 2, whose fourth moment :math:`c^2 \sigma^4` is the
+Gaussian's :math:`3 \sigma^4`).
+
+**What the parameters do.** :math:`\alpha` and :math:`\kappa` set one
+number, the distance c (the points sit c standard deviations out along
+each column of L), and the mean weights depend on c alone; they are separate
+parameters only because :math:`W^c_0` involves :math:`\alpha` alone. A small
+:math:`\alpha` gives points near m (the UT then tends to a second-order
+expansion of g at m) and a large negative :math:`W^m_0`. The term
+:math:`1 - \alpha^2` of :math:`W^c_0` gives the centre back the fourth
+moment that pulling the points in removes (with it, the variance of a 1-D
+quadratic depends on :math:`\alpha^2 \kappa + \beta` only).
+:math:`\beta` adds weight to the central point in the covariance only,
+supplying the part of a Gaussian's fourth moment the points miss
+(:math:`\beta = 2` when :math:`\kappa = 0`, in one dimension). The
+defaults alpha = 1, beta = 2, kappa = 0 give :math:`W^m_0 = 0` and
+:math:`W^c_0 = 2`, every weight non-negative in any dimension, but put the
+points :math:`\sqrt n` standard deviations out, far from the mean when n is
+large (the reason the scaled points have alpha); with beta = 0 they would be
+the third-degree spherical cubature rule (Särkkä 2013, chapter 6).
 The chapter writes them :math:`\tilde\alpha, \tilde\beta, \tilde\kappa,
 \tilde\lambda` (the plain letters have other meanings in the course); the
 code keeps filterpy's names ``alpha``, ``beta``, ``kappa``.
@@ -79,38 +105,65 @@ conditions the resulting joint Gaussian of :math:`(x_t, y_t)` on
     \hat x_{t|t} = \hat x_{t|t-1} + K_t (y_t - \hat y_{t|t-1}), \qquad
     P_{t|t} = P_{t|t-1} - K_t S_t K_t^T.
 
-It is computed by ``bf.kalman``'s own update kernel (the Joseph form, a
-Cholesky solve, the log-likelihood), read as a *statistical linear
-regression* (Lefebvre, Bruyninckx & De Schutter 2002): the slope of the
-images on the points, :math:`\bar C = \Sigma_{xy}^T P^{-1}`, plays the part of
-the measurement matrix C, and the scatter of the images about that line,
-:math:`\Omega = \Sigma_{yy} - \bar C \Sigma_{xy}`, is added to R. Then
-:math:`\bar C P \bar C^T + R + \Omega = S_t` and :math:`P \bar C^T = \Sigma_{xy}`,
-so the Kalman update with :math:`(\bar C, R + \Omega)` is the update above.
-For a linear h the regression line is h itself and :math:`\Omega = 0`: the
-UKF is then the Kalman filter, to rounding.
+The textbook computes the gain directly, :math:`K_t = \Sigma_{xy} S_t^{-1}`.
+``bf.ukf`` takes a longer route so that it can reuse ``bf.kalman``'s own
+update kernel (the Joseph form, a Cholesky solve, the log-likelihood): it
+reads the UT as a *statistical linear regression* (Lefebvre, Bruyninckx &
+De Schutter 2002). The slope of the images on the points,
+:math:`\bar C = \Sigma_{xy}^T P^{-1}`, plays the part of the measurement
+matrix C, and the scatter of the images about that line,
+:math:`\Lambda = \Sigma_{yy} - \bar C \Sigma_{xy}`, is added to R. Then
+:math:`\bar C P \bar C^T + R + \Lambda = S_t` and :math:`P \bar C^T =
+\Sigma_{xy}`, so the Kalman update with :math:`(\bar C, R + \Lambda)` is the
+update above, in exact arithmetic. For a linear h the regression line is h
+itself and :math:`\Lambda = 0`: the UKF is then the Kalman filter, to
+rounding. Two costs of the route:
+
+* it adds a solve with :math:`P = P_{t|t-1}` (with the Cholesky factor that
+  drew the points) that the direct gain avoids, and so can lose accuracy
+  when P is nearly singular;
+* :math:`\Lambda = \sum_j W^c_j \big(\mathcal Y_j - \hat y - \bar C(\mathcal X_j -
+  \hat x)\big)\big(\cdot\big)^T` is a weighted sum of squares, positive
+  semi-definite when every :math:`W^c_j \ge 0`. A negative :math:`W^c_0`
+  (a small alpha, or kappa < 0) can make it indefinite, and the Joseph form
+  then no longer guarantees a positive semi-definite :math:`P_{t|t}` (nor
+  does :math:`P - K S K^T`); the filter reports the failure at the next
+  Cholesky factorisation.
+
+The independent UKF of ``tests/test_ukf.py`` uses the direct gain, so the
+test suite's agreement of the two is a real check of this route.
 
 Time convention (seed 000), as in every filter of the course: ``ys[0]``
 measures :math:`x_0 \sim N(m_0, P_0)`, so the first step is an update and
 ``pred_means[0] = m0``; the step from t - 1 to t uses ``f`` at time t - 1 of
 a time-varying model (``model.transition_functions(t - 1)``).
 
-**Angles.** A bearing cannot be averaged or subtracted plainly: the mean of
-3.1 and -3.1 rad is pi, not 0. With ``model.residual`` (a residual that
+**Angles.** A bearing cannot be averaged or subtracted plainly: 3.1 and
+-3.1 rad both point near pi, but their plain mean is 0, the opposite
+direction. With ``model.residual`` (a residual that
 subtracts and wraps, e.g. ``bf.models.range_bearing_residual``) the filter
 
 * averages the images *relative to the central one*,
-  :math:`\hat y = \mathcal Y_0 + \sum_j W^m_j\, \mathrm{res}(\mathcal Y_j, \mathcal Y_0)`,
-  which is the plain weighted mean of the bearings taken on the branch
-  around :math:`\mathcal Y_0` (exact as long as the sigma points' bearings
-  lie within pi of the central one), then brings it back into range with
-  :math:`\mathrm{res}(\hat y, 0)`;
+  :math:`\hat y = \mathcal Y_0 + \sum_j W^m_j\, \mathrm{res}(\mathcal Y_j, \mathcal Y_0)`:
+  each bearing is shifted by a multiple of 2 pi to within pi of the central
+  one, and the shifted bearings are averaged plainly; then the mean is
+  brought back into range with :math:`\mathrm{res}(\hat y, 0)`;
 * takes every spread and the innovation with the residual,
   :math:`\mathrm{res}(\mathcal Y_j, \hat y)` and :math:`\mathrm{res}(y_t, \hat y)`.
 
+This mean is meaningful when the sigma points' bearings spread over much
+less than pi. When they spread widely, where each one lands depends on
+where the cut at :math:`\mathcal Y_0 \pm \pi` falls, and the mean bearing
+is only rough: at the first update of Kay's vehicle (prior N(m0, P0) around
+the sensor) the bearings are 0.20, 1.37, 2.82 and -1.25 rad around the
+central 0.79, and the UT's scatter adds about 0.26 rad^2 to the bearing's
+variance (the :math:`\Lambda` above), against R's 0.01.
+
 A circular mean (the angle of :math:`\sum_j W^m_j e^{i \beta_j}`) is not
 used: it differs from the weighted mean of the angles when they spread, and
-with a negative weight it is no longer an average of directions. The state is averaged plainly (a
+with a negative weight it is no longer an average of directions. When the
+bearings spread little the two agree closely (the chapter's half-turn check
+cannot tell them apart). The state is averaged plainly (a
 ``NonlinearGaussian`` has no residual for the state).
 
 **Square root.** The points use the *lower* Cholesky factor, :math:`P = L
@@ -202,7 +255,7 @@ def _parameter(name: str, value) -> float:
 
 
 def _weights(n: int, alpha, beta, kappa) -> _Weights:
-    """The weights of the scaled sigma points (Wan & van der Merwe 2000), checked parameters."""
+    """The weights of the scaled sigma points (Julier 2002; Wan & van der Merwe 2000)."""
     alpha, beta, kappa = (_parameter(k, v) for k, v in
                           (("alpha", alpha), ("beta", beta), ("kappa", kappa)))
     if alpha <= 0:
@@ -255,7 +308,7 @@ def sigma_points(mean, cov, alpha=1.0, beta=2.0, kappa=0.0) -> SigmaPoints:
 
     with L the lower Cholesky factor of P (:math:`P = L L^T`; see the module
     docstring for why the columns of L, and filterpy's rows of
-    :math:`U = L^T`). Wan & van der Merwe (2000); Särkkä (2013), eqs.
+    :math:`U = L^T`). Julier (2002); Wan & van der Merwe (2000); Särkkä (2013), eqs.
     (5.72)-(5.75). The chapter writes the parameters
     :math:`\tilde\alpha, \tilde\beta, \tilde\kappa`.
 
@@ -474,11 +527,13 @@ def _update(x, P, y, h, R, residual, w: _Weights, o=None) -> Update:
         Syy, Sxy, R_o, r_o = Syy[np.ix_(o, o)], Sxy[:, o], R[np.ix_(o, o)], r[o]
     # Statistical linear regression of the images on the points: the slope
     # C = Sigma_xy^T P^{-1} (a Cholesky solve with the factor at hand) and the scatter about
-    # it, Omega = Sigma_yy - C Sigma_xy. Chapter 02's update with (C, R + Omega) is the UKF's:
-    # S = C P C^T + R + Omega = Sigma_yy + R, K = P C^T S^{-1} = Sigma_xy S^{-1}, P - K S K^T.
+    # it, Lambda = Sigma_yy - C Sigma_xy. Chapter 02's update with (C, R + Lambda) is the
+    # UKF's: S = C P C^T + R + Lambda = Sigma_yy + R, K = P C^T S^{-1} = Sigma_xy S^{-1}.
+    # (The direct K = Sigma_xy S^{-1} needs no solve with P; this route reuses bf.kalman's
+    # Joseph form and log-likelihood. Lambda is PSD only if every W^c_j >= 0.)
     C = cho_solve((L, True), Sxy).T
-    Omega = Syy - C @ Sxy
-    R_eff = R_o + 0.5 * (Omega + Omega.T)
+    Lam = Syy - C @ Sxy
+    R_eff = R_o + 0.5 * (Lam + Lam.T)
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         try:
             x_new, P_new, K, _, S, loglik = _correct(x, P, r_o, C, R_eff, np.eye(n))
@@ -669,9 +724,10 @@ def unscented_kalman_filter(model, ys, alpha=1.0, beta=2.0, kappa=0.0, us=None) 
     ys : array_like, shape (T, m)
         Measurements; NaN marks a missing component. (1-D when m = 1.)
     alpha, beta, kappa : float
-        The sigma points' parameters (:func:`sigma_points`); the defaults
-        1, 2, 0 put the points at sqrt(n) standard deviations with
-        non-negative weights.
+        The sigma points' parameters (:func:`sigma_points`). The defaults
+        1, 2, 0 keep every weight non-negative in any dimension
+        (:math:`W^m_0 = 0`, :math:`W^c_0 = 2`), but put the points sqrt(n)
+        standard deviations out, far from the mean when n is large.
     us : array_like, shape (T - 1, p), optional
         Known inputs of a ``LinearGaussian`` with B (row t acts from t to t + 1);
         a ``NonlinearGaussian`` takes none.

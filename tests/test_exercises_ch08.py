@@ -3,7 +3,7 @@
 For every exercise: the reference answer, computed here independently of the
 check (the Cholesky factor and the weights written out by hand, the moments of
 a Gaussian in closed form, the UT's variance of x^T x summed point by point,
-the mean of bearings with complex numbers), is accepted; plausible wrong
+the UKF update with plain loops and the direct gain), is accepted; plausible wrong
 answers are rejected, each with its own diagnosis (asserted on the message);
 None and NotImplementedError mean "not attempted yet"; garbage never raises.
 The numbers of the notebook's statements are the module's constants.
@@ -97,7 +97,7 @@ def test_the_notebook_states_the_numbers_of_the_module():
 def test_solution_blocks_hold_only_defs_and_answer_assignments():
     answers = {1: {"points_1", "mean_weights_1", "cov_weights_1"},
                2: {"ut_mean_2", "ut_var_2", "exact_var_2", "beta_2"},
-               3: {"ut_variance", "negative_3"}, 4: {"mean_bearing"}}
+               3: {"ut_variance", "negative_3"}, 4: {"ukf_update"}}
     for n, parts in _exercise_cells().items():
         assert solution_names(parts["answer"]) == answers[n], n
 
@@ -301,70 +301,82 @@ def test_ex3_not_attempted_and_garbage():
 
 
 # ---------------------------------------------------------------------------
-# Exercise 4: the mean of bearings
+# Exercise 4: the UKF's measurement update
 # ---------------------------------------------------------------------------
 
-def mean_bearing_complex(bearings, weights):
-    b = np.asarray(bearings, float)
-    d = np.angle(np.exp(1j * (b - b[0])))
-    return float(np.angle(np.exp(1j * (b[0] + weights @ d))))
+def ukf_update_by_loops(x, P, y, h, R, alpha, beta, kappa):
+    """Särkkä (2013), Algorithm 5.14's update with plain loops: the points and weights written
+    out (not bf.ukf.sigma_points), the direct gain K = Sigma_xy S^{-1}."""
+    x, P, y, R = (np.asarray(a, float) for a in (x, P, y, R))
+    n = x.size
+    lam = alpha**2 * (n + kappa) - n
+    L = np.linalg.cholesky(P)
+    points = [x] + [x + np.sqrt(n + lam) * L[:, j] for j in range(n)] \
+        + [x - np.sqrt(n + lam) * L[:, j] for j in range(n)]
+    wm = [lam / (n + lam)] + [1 / (2 * (n + lam))] * (2 * n)
+    wc = [wm[0] + 1 - alpha**2 + beta] + wm[1:]
+    images = [np.asarray(h(p[None, :]), float)[0] for p in points]      # one point at a time
+    y_hat = sum(w * z for w, z in zip(wm, images))
+    S = R + sum(w * np.outer(z - y_hat, z - y_hat) for w, z in zip(wc, images))
+    Sxy = sum(w * np.outer(p - x, z - y_hat) for w, p, z in zip(wc, points, images))
+    K = Sxy @ np.linalg.inv(S)
+    return x + K @ (y - y_hat), P - K @ S @ K.T
 
 
-def mean_bearing_loops(bearings, weights):
-    total = bearings[0]
-    for b, w in zip(bearings, weights):
-        d = b - bearings[0]
-        while d > np.pi:
-            d -= 2 * np.pi
-        while d <= -np.pi:
-            d += 2 * np.pi
-        total += w * d
-    while total > np.pi:
-        total -= 2 * np.pi
-    while total <= -np.pi:
-        total += 2 * np.pi
-    return total
-
-
-def mean_bearing_modulo(bearings, weights):
-    """Wraps into [-pi, pi): returns -pi where the reference has pi."""
-    d = (bearings - bearings[0] + np.pi) % (2 * np.pi) - np.pi
-    return float((bearings[0] + weights @ d + np.pi) % (2 * np.pi) - np.pi)
-
-
-def test_ex4_cases_cover_the_cut_the_boundary_and_a_negative_weight():
+def test_ex4_cases_cover_the_settings_and_a_linear_h():
     cases = ch08.CASES_4
-    assert any(np.ptp(b) > np.pi for b, _ in cases)             # straddling +-pi
-    assert any(b[0] == np.pi for b, _ in cases)
-    assert any((w < 0).any() for _, w in cases)
-    assert any(abs(b[0] + w @ np.angle(np.exp(1j * (b - b[0])))) > np.pi for b, w in cases)
-    for b, w in cases:
-        np.testing.assert_allclose(w.sum(), 1.0)
-        assert abs(np.angle(np.exp(1j * (ch08._mean_bearing(b, w) - mean_bearing_complex(b, w))))) < 1e-12
+    params = [c[5:] for c in cases]
+    assert (1.0, 0.0, 2.0) in params and (1.0, 2.0, 0.0) in params      # section 1's, the defaults
+    centre_weights = [bf.ukf.sigma_points(c[0], c[1], *c[5:]).cov_weights[0] for c in cases]
+    assert min(centre_weights) < 0                                       # a negative W^c_0
+    linear = next(c for c in cases if c[3] is ch08._linear)
+    # a linear h: the UKF's update is the Kalman update (chapter 02), by an independent formula
+    x, P, y, _, R = linear[:5]
+    C = np.asarray(ch08._C_4)
+    K = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+    mean, cov = ukf_update_by_loops(*linear)
+    np.testing.assert_allclose(mean, x + K @ (y - C @ x), atol=1e-12)
+    np.testing.assert_allclose(cov, P - K @ C @ P, atol=1e-12)
 
 
-def test_ex4_accepts_every_way_of_wrapping():
-    for fun in (mean_bearing_complex, mean_bearing_loops, mean_bearing_modulo):
-        correct(ch08.exercise_4(fun))
+def test_ex4_reference_is_the_direct_update_and_accepted():
+    for case in ch08.CASES_4:
+        ref, mine = ch08._update_4(*case), ukf_update_by_loops(*case)
+        np.testing.assert_allclose(ref[0], mine[0], atol=1e-12)
+        np.testing.assert_allclose(ref[1], mine[1], atol=1e-12)
+        assert np.linalg.eigvalsh(mine[1]).min() > 0
+    correct(ch08.exercise_4(ukf_update_by_loops))
+    correct(ch08.exercise_4(lambda *a: list(ukf_update_by_loops(*a))))
+    correct(ch08.exercise_4(lambda *a: tuple(v.tolist() for v in ukf_update_by_loops(*a))))
+
+
+def _mistake(**kw):
+    return lambda *args: ch08._variant_4(*args, **kw)
 
 
 @pytest.mark.parametrize("fun, phrases", [
-    (lambda b, w: float(w @ b), ["plain weighted mean"]),
-    (lambda b, w: float(np.arctan2(w @ np.sin(b), w @ np.cos(b))), ["test input 1", "circular mean"]),
-    (lambda b, w: float(b[0] + w @ (b - b[0])), ["test input 2", "unwrapped differences",
-                                                 "before averaging"]),
-    (lambda b, w: float(b[0] + w @ np.angle(np.exp(1j * (b - b[0])))), ["outside (-pi, pi]"]),
-    (lambda b, w: np.array([mean_bearing_complex(b, w), 0.0]), ["single finite number"]),
-    (lambda b, w: mean_bearing_complex(b, w) + 0.01, ["test input 1", "differs"]),
+    (_mistake(weights="mean"), ["test input 2", "covariance weights W^c"]),
+    (_mistake(noise=False), ["test input 1", "R is missing"]),
+    (_mistake(centre="tangent"), ["test input 1", "not h at the mean"]),
+    (_mistake(cross="raw"), ["test input 2", "X_j - x_hat"]),
+    (_mistake(sign=1.0), ["test input 1", "lowers the covariance"]),
+    (lambda *a: (ukf_update_by_loops(*a)[0] + 0.01, ukf_update_by_loops(*a)[1]),
+     ["test input 1", "mean"]),
+    (lambda *a: ukf_update_by_loops(*a)[0], ["a pair (mean, cov)", "ndarray"]),
+    (lambda *a: (ukf_update_by_loops(*a)[1], ukf_update_by_loops(*a)[0]),
+     ["the mean in the output for test input 1", "wrong shape"]),
 ])
 def test_ex4_diagnoses(fun, phrases):
-    wrong(ch08.exercise_4(fun), *phrases)
+    fb = ch08.exercise_4(fun)
+    wrong(fb, *phrases)
+    hides(fb, *[v for c in ch08.CASES_4 for v in ch08._update_4(*c)], min_digits=3,
+          integers=False)
 
 
 def test_ex4_not_attempted_and_garbage():
     not_attempted(ch08.exercise_4(None))
     not_attempted(ch08.exercise_4(not_implemented))
-    wrong(ch08.exercise_4(lambda b, w: None), "forget `return`")
+    wrong(ch08.exercise_4(lambda *a: None), "forget `return`")
     wrong(ch08.exercise_4(fails_oddly), "fails on test input 1")
     never_raises(ch08.exercise_4, [(g,) for g in BAD_FUNCTIONS + GARBAGE])
 
@@ -375,4 +387,4 @@ def test_checks_themselves_raise_no_warning_on_garbage():
         ch08.exercise_1(g, g, g)
         ch08.exercise_2(g, g, g, g)
         ch08.exercise_3(lambda a, b, k: g, g)
-        ch08.exercise_4(lambda b, w: g)
+        ch08.exercise_4(lambda *a: g)

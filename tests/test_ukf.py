@@ -1,9 +1,11 @@
 """Tests of bf.ukf against independent references.
 
-References: closed forms (linear, quadratic and cubic functions of a Gaussian),
+References: closed forms (linear, quadratic, cubic and quartic functions of a Gaussian),
 a large Monte Carlo sample, the Kalman filter (bf.kalman, itself tested against
 filterpy), an additive-noise UKF written below with plain loops from Särkkä (2013),
-Algorithm 5.14, and filterpy 2.0.0's UnscentedKalmanFilter with MerweScaledSigmaPoints.
+Algorithm 5.14, with the direct gain K = Sigma_xy S^{-1} (bf.ukf reaches it through
+bf.kalman's update kernel), and filterpy 2.0.0's UnscentedKalmanFilter with
+MerweScaledSigmaPoints.
 """
 
 from __future__ import annotations
@@ -55,6 +57,11 @@ def angle_of(d):
 
 def sarkka_ukf(f_t, h, GQGt, R, m0, P0, ys, alpha, beta, kappa, angles=None):
     """Särkkä (2013), Algorithm 5.14, written with plain loops; ys[0] measures x_0.
+
+    The update is the textbook's direct form, K = Sigma_xy S^{-1}, P - K S K^T, with a
+    plain solve and scipy's log-density: no regression slope, no solve with P, no Joseph
+    form, none of bf.kalman's update code, so agreeing with bf.ukf (which goes through
+    bf.kalman._correct) is a real check of that route.
 
     f_t(t, x): the transition from t to t + 1 of one state; h(x) of one state. ``angles``
     (m,) bool marks the measurement components that are angles: their differences are
@@ -286,6 +293,46 @@ def test_ut_variance_of_a_cubic_is_not_exact():
     ut = bf.ukf.unscented_transform(lambda x: x**3, [0.0], [[s**2]], 1.0, 2.0, 2.0)
     np.testing.assert_allclose(ut.cov[0, 0], 9.0 * s**6, rtol=1e-12)
     assert abs(ut.cov[0, 0] - 15.0 * s**6) > 5.0 * s**6
+
+
+@pytest.mark.parametrize("params", [p for p in PARAMS if 1 + p[2] > 0])       # n = 1
+def test_ut_mean_of_a_quartic_is_exact_only_for_c_squared_three(params):
+    """x ~ N(m, s^2): E[x^4] = m^4 + 6 m^2 s^2 + 3 s^4; the points' fourth moment is c^2 s^4."""
+    m, s2 = 0.7, 1.3
+    alpha, _, kappa = params
+    c2 = alpha**2 * (1 + kappa)
+    ut = bf.ukf.unscented_transform(lambda x: x**4, [m], [[s2]], *params)
+    np.testing.assert_allclose(ut.mean, [m**4 + 6 * m**2 * s2 + c2 * s2**2], rtol=1e-12)
+    julier = bf.ukf.unscented_transform(lambda x: x**4, [m], [[s2]], 1.0, 0.0, 2.0)
+    np.testing.assert_allclose(julier.mean, [m**4 + 6 * m**2 * s2 + 3 * s2**2], rtol=1e-12)
+
+
+@pytest.mark.parametrize("params", [p for p in PARAMS if 1 + p[2] > 0]
+                         + [(1.0, 0.0, 2.0), (0.5, 1.5, 2.0)])
+def test_ut_variance_of_a_quadratic_in_one_dimension(params):
+    """g = a e + b e^2, e = x - m ~ N(0, s^2): the UT's variance is a^2 s^2 + b^2 s^4
+    (alpha^2 kappa + beta); the exact one a^2 s^2 + 2 b^2 s^4 (so exact iff that is 2)."""
+    m, s2, a, b = 0.4, 0.8, 1.5, -0.7
+    alpha, beta, kappa = params
+    ut = bf.ukf.unscented_transform(lambda x: a * (x - m) + b * (x - m) ** 2, [m], [[s2]],
+                                    *params)
+    expected = a**2 * s2 + b**2 * s2**2 * (alpha**2 * kappa + beta)
+    np.testing.assert_allclose(ut.cov[0, 0], expected, rtol=1e-10)
+    exact = a**2 * s2 + 2 * b**2 * s2**2
+    assert np.isclose(ut.cov[0, 0], exact) == np.isclose(alpha**2 * kappa + beta, 2.0)
+
+
+def test_ut_variance_of_a_squared_norm_in_four_dimensions():
+    """g(x) = x^T x, x ~ N(0, I_4): UT variance beta n^2 + alpha^2 n kappa (the defaults:
+    32) against the exact 2n = 8; beta = 2 does not rescue it in n dimensions."""
+    n = 4
+    for alpha, beta, kappa in [(1.0, 2.0, 0.0), (0.5, 2.0, 1.0), (2.0, 0.5, 3.0)]:
+        ut = bf.ukf.unscented_transform(lambda x: (x**2).sum(axis=-1), np.zeros(n), np.eye(n),
+                                        alpha, beta, kappa)
+        np.testing.assert_allclose(ut.cov[0, 0], beta * n**2 + alpha**2 * n * kappa,
+                                   rtol=1e-10, atol=1e-10)
+    draws = (np.random.default_rng(11).standard_normal((200_000, n)) ** 2).sum(axis=1)
+    assert abs(draws.var() - 2 * n) < 0.2                   # var of chi2_4 is 8 (SE 0.04)
 
 
 def test_ut_mean_of_a_cubic_agrees_with_a_large_monte_carlo():

@@ -1,23 +1,22 @@
-"""Checks of chapter 08's exercises (the unscented transform; references by bf.ukf and bf.models).
+"""Checks of chapter 08's exercises (the unscented transform and the UKF; references by bf.ukf).
 One line per exercise::
 
     exercise_1(points, mean_weights, cov_weights): the sigma points and weights of a 2-D Gaussian, by hand;
     exercise_2(ut_mean, ut_var, exact_var, beta): the unscented transform of x^2, and the beta that makes it exact;
     exercise_3(ut_variance, negative): the UT's variance of x^T x as a function of (alpha, beta, kappa), and the
         setting that makes it negative;
-    exercise_4(mean_bearing): the weighted mean of bearings on the branch around the first one.
+    exercise_4(ukf_update): the UKF's measurement update (sigma points, the UT's joint Gaussian, the gain
+        K = Sigma_xy S^{-1}) as a function.
 """
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 from scipy import linalg as sla
 
-from .. import models, ukf
+from .. import ukf
 from . import (CORRECT, INCORRECT, Feedback, _combine, _frozen, _hinted, _named, _not_attempted, _wrong,
-               compare_choice, compare_function, compare_number, register as _register)
+               compare_array, compare_choice, compare_function, compare_number, register as _register)
 
 # the statements' numbers
 M_1, P_1, PARAMS_1 = _frozen([1.0, 2.0]), _frozen([[4.0, 2.0], [2.0, 2.0]]), (0.5, 2.0, 6.0)
@@ -26,15 +25,42 @@ N_3 = 4                                                   # g(x) = x^T x, x ~ N(
 SETTINGS_3 = {"A": (1.0, 2.0, 0.0), "B": (1.0, 0.0, -1.0), "C": (0.5, 2.0, 0.0)}
 # ex 3's test inputs: the three settings, then a wide one, a tilted one, and n + kappa = 0.5 (points close in)
 CASES_3 = tuple(SETTINGS_3.values()) + ((2.0, 0.0, 1.0), (0.8, 1.0, 3.0), (1.5, 2.0, -3.5))
-# ex 4: (bearings, weights): near 0; straddling +-pi; the first exactly pi; a negative weight and a wide spread;
-# around -pi; a mean that leaves (-pi, pi] before it is wrapped
-CASES_4 = tuple((_frozen(b), _frozen(w)) for b, w in [
-    ([0.1, 0.3, -0.2], [0.5, 0.25, 0.25]),
-    ([3.1, -3.1, 3.0, -3.0, 3.05], [0.2, 0.2, 0.2, 0.2, 0.2]),
-    ([np.pi, -3.0, 3.0], [0.4, 0.3, 0.3]),
-    ([0.0, 2.0, -2.0, 1.5, -1.0], [-0.5, 0.4, 0.4, 0.35, 0.35]),
-    ([-3.0, 2.9, -2.6], [0.6, 0.2, 0.2]),
-    ([3.0, -3.0], [0.2, 0.8])])
+# ex 4: (x, P, y, h, R, alpha, beta, kappa). The road toy of section 1 with its setting (1, 0, 2); a range
+# in 2-D with the defaults (W^c_0 = 2 != W^m_0 = 0); a linear h (the answer is the Kalman update) with a
+# negative W^m_0; a 3-D state with two measurements and a negative W^c_0 = -0.5 (kappa = -1).
+
+
+def _road(X):
+    """The road toy's range sqrt(xi^2 + 4), (N, 1) -> (N, 1)."""
+    return np.sqrt(X[..., :1] ** 2 + 4.0)
+
+
+def _range(X):
+    """The distance of a 2-D state from the origin, (N, 2) -> (N, 1)."""
+    return np.hypot(X[..., 0], X[..., 1])[..., None]
+
+
+_C_4 = _frozen([[1.0, 0.5], [0.0, 1.0]])
+
+
+def _linear(X):
+    """y = C x for a 2-D state, (N, 2) -> (N, 2)."""
+    return X @ _C_4.T
+
+
+def _range_and_square(X):
+    """The range of (x_1, x_2) and x_3^2 / 2, (N, 3) -> (N, 2)."""
+    return np.stack([np.hypot(X[..., 0], X[..., 1]), 0.5 * X[..., 2] ** 2], axis=-1)
+
+
+CASES_4 = (
+    (_frozen([1.0]), _frozen([[1.0]]), _frozen([2.5]), _road, _frozen([[0.1]]), 1.0, 0.0, 2.0),
+    (_frozen([3.0, 4.0]), _frozen([[4.0, 1.0], [1.0, 2.0]]), _frozen([5.6]), _range, _frozen([[0.25]]),
+     1.0, 2.0, 0.0),
+    (_frozen([1.0, -1.0]), _frozen([[2.0, 0.3], [0.3, 1.0]]), _frozen([0.5, -2.0]), _linear,
+     _frozen([[0.2, 0.0], [0.0, 0.3]]), 0.5, 2.0, 1.0),
+    (_frozen([2.0, 1.0, 1.0]), _frozen([[1.0, 0.2, 0.0], [0.2, 0.5, 0.1], [0.0, 0.1, 0.3]]),
+     _frozen([2.4, 0.8]), _range_and_square, _frozen([[0.1, 0.0], [0.0, 0.05]]), 1.0, 0.0, -1.0))
 
 
 # Exercise 1: the sigma points and weights of a 2-D Gaussian, by hand ---------------------------------------------
@@ -186,41 +212,60 @@ def exercise_3(ut_variance, negative) -> Feedback:
     return _combine([("ut_variance", fun), ("negative_3", choice)])
 
 
-# Exercise 4: the mean of bearings ---------------------------------------------------------------------------------
-def _mean_bearing(bearings, weights) -> float:
-    """bf.ukf's mean of the bearings: the images (range 1, bearing) with the range-bearing residual."""
-    images = np.column_stack([np.ones(len(bearings)), bearings])
-    mean, _ = ukf._mean_and_spread(images, np.asarray(weights, float), models.range_bearing_residual)
-    return float(mean[1])
+# Exercise 4: the UKF's measurement update --------------------------------------------------------------------
+def _update_4(x, P, y, h, R, alpha, beta, kappa) -> tuple:
+    """bf.ukf.update's mean and covariance: the reference."""
+    up = ukf.update(x, P, y, h, R, alpha, beta, kappa)
+    return up.mean, up.cov
 
 
-def _on_the_circle(out, expected, what="the output", rtol=1e-6, atol=1e-9) -> Feedback:
-    """A bearing in [-pi, pi] equal to the reference up to a whole turn (pi and -pi are the same bearing)."""
-    if isinstance(out, np.ndarray) and out.size == 1:
-        out = out.item()
+def _variant_4(x, P, y, h, R, alpha, beta, kappa, weights="cov", noise=True, centre="mean",
+               cross="centred", sign=-1.0) -> tuple:
+    """The direct update K = Sigma_xy S^{-1}, or a named mistake's variant of it."""
+    sp = ukf.sigma_points(x, P, alpha, beta, kappa)
+    X, wm = sp.points, sp.mean_weights
+    wc = sp.cov_weights if weights == "cov" else wm
+    Y = np.asarray(h(X.copy()), float)
+    y_hat = wm @ Y if centre == "mean" else np.asarray(h(np.asarray(x, float)[None, :]), float)[0]
+    dY = Y - y_hat
+    S = (wc * dY.T) @ dY + (np.asarray(R) if noise else 0.0)
+    dX = X - (np.asarray(x, float) if cross == "centred" else 0.0)
+    Sxy = (wc * dX.T) @ dY
+    K = np.linalg.solve(S, Sxy.T).T
+    return np.asarray(x, float) + K @ (np.asarray(y, float) - y_hat), np.asarray(P) + sign * K @ S @ K.T
+
+
+def _mean_and_cov(out, expected, what="the output", rtol=1e-6, atol=1e-9) -> Feedback:
+    """A pair (mean (n,), cov (n, n)) compared entry by entry with the reference pair."""
     if out is None:
         return _not_attempted(what)
-    if isinstance(out, (bool, np.bool_)) or not isinstance(out, numbers.Real) or not np.isfinite(float(out)):
-        return _wrong(f"{what} must be a single finite number (a float), got {type(out).__name__}.")
-    a = float(out)
-    if abs(a) > np.pi + 1e-12:
-        return _wrong(f"{what} is outside (-pi, pi]: wrap the mean back into range (bf.models.wrap_angle).")
-    gap = abs(float(models.wrap_angle(a - float(expected))))
-    return Feedback(CORRECT, f"{what} matches the reference.") if gap <= atol + rtol * np.pi else _wrong(
-        f"{what} differs from the reference by {gap:.3g} rad.")
+    if not isinstance(out, (tuple, list)) or len(out) != 2:
+        size = f" of length {len(out)}" if isinstance(out, (tuple, list)) else ""
+        return _wrong(f"{what} must be a pair (mean, cov), got {type(out).__name__}{size}.")
+    for part, answer, exp in (("mean", out[0], expected[0]), ("covariance", out[1], expected[1])):
+        fb = compare_array(answer, exp, what=f"the {part} in {what}", rtol=rtol, atol=atol)
+        if not fb.correct:
+            return fb
+    return Feedback(CORRECT, f"{what} matches the reference.")
 
 
-def exercise_4(mean_bearing) -> Feedback:
-    """Check ``mean_bearing(bearings, weights)`` on CASES_4 against bf.ukf's mean of bearings."""
-    quiet = _hinted(mean_bearing, lambda exc, args: "")  # a failure that cannot even print itself
-    return compare_function(quiet, _mean_bearing, [tuple(c) for c in CASES_4], what="mean_bearing",
-                            compare=_on_the_circle, mistakes=[
-        (lambda b, w: float(w @ b), "the plain weighted mean of the bearings (the same as the mean of their "
-                                    "unwrapped differences from the first): across the +-pi cut it points the "
-                                    "opposite way; wrap each difference from the first bearing before averaging."),
-        (lambda b, w: float(np.arctan2(w @ np.sin(b), w @ np.cos(b))), "a circular mean (the angle of "
-         "sum_j W_j e^{i beta_j}): a different number when the bearings spread or a weight is negative; average "
-         "the wrapped differences from the first bearing.")])
+def exercise_4(ukf_update) -> Feedback:
+    """Check ``ukf_update(x, P, y, h, R, alpha, beta, kappa)`` on CASES_4 against bf.ukf.update."""
+    quiet = _hinted(ukf_update, lambda exc, args: "")  # a failure that cannot even print itself
+
+    def variant(**kw):
+        return lambda *args: _variant_4(*args, **kw)
+
+    return compare_function(quiet, _update_4, [tuple(c) for c in CASES_4], what="ukf_update",
+                            compare=_mean_and_cov, mistakes=[
+        (variant(weights="mean"), "Sigma_yy and Sigma_xy use the covariance weights W^c (W^c_0 = W^m_0 + "
+                                  "1 - alpha~^2 + beta~), not the mean weights W^m."),
+        (variant(noise=False), "S_t = Sigma_yy + R: the measurement noise R is missing from S_t."),
+        (variant(centre="tangent"), "y_hat is the weighted mean of the images h(X_j), not h at the mean (the "
+                                    "tangent's prediction of chapter 04)."),
+        (variant(cross="raw"), "Sigma_xy uses the deviations X_j - x_hat of the points from the mean, not the "
+                               "points themselves."),
+        (variant(sign=1.0), "the update lowers the covariance: P_{t|t} = P_{t|t-1} - K S K^T.")])
 
 
 _register(globals())
