@@ -58,9 +58,9 @@ each column of L), and the mean weights depend on c alone; they are separate
 parameters only because :math:`W^c_0` involves :math:`\alpha` alone. A small
 :math:`\alpha` gives points near m (the UT then tends to a second-order
 expansion of g at m) and a large negative :math:`W^m_0`. The term
-:math:`1 - \alpha^2` of :math:`W^c_0` gives the centre back the fourth
-moment that pulling the points in removes (with it, the variance of a 1-D
-quadratic depends on :math:`\alpha^2 \kappa + \beta` only).
+:math:`1 - \alpha^2` of :math:`W^c_0` gives the centre back part of the
+fourth moment that pulling the points in removes (with it, the variance of a
+1-D quadratic depends on :math:`\alpha^2 \kappa + \beta` only).
 :math:`\beta` adds weight to the central point in the covariance only,
 supplying the part of a Gaussian's fourth moment the points miss
 (:math:`\beta = 2` when :math:`\kappa = 0`, in one dimension). The
