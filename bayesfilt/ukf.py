@@ -198,7 +198,7 @@ from scipy.linalg import cho_solve
 
 from ._checks import (as_covariance, as_matrix, as_noise_gain, as_vector, check_callable,
                       check_output, require_finite)
-from .kalman import FilterResult, Prediction, Update, _correct
+from .kalman import FilterResult, Prediction, Update, _correct, _embed
 
 __all__ = ["SigmaPoints", "Transformed", "sigma_points", "unscented_transform", "predict",
            "update", "unscented_kalman_filter"]
@@ -494,19 +494,6 @@ S_NOT_PD = ("innovation covariance S = sum_j W^c_j (Y_j - y_hat)(Y_j - y_hat)^T 
             "indefinite")
 
 
-def _embed(o, K, r, S):
-    """Full-shape gain (n, m), innovation (m,) and S (m, m) from those of the components o:
-    zero gain columns, NaN innovation entries and NaN rows and columns of S where unobserved."""
-    m = o.shape[0]
-    K_full = np.zeros((K.shape[0], m))
-    K_full[:, o] = K
-    r_full = np.full(m, np.nan)
-    r_full[o] = r
-    S_full = np.full((m, m), np.nan)
-    S_full[np.ix_(o, o)] = S
-    return K_full, r_full, S_full
-
-
 def _update(x, P, y, h, R, residual, w: _Weights, o=None) -> Update:
     """:func:`update` without the argument checks; ``o`` (m,) bool marks the observed
     components of a partly-missing y (None: all observed)."""
@@ -666,14 +653,6 @@ def update(x, P, y, h, R, alpha=1.0, beta=2.0, kappa=0.0, residual=None) -> Upda
 # The whole run
 # --------------------------------------------------------------------------
 
-def _filter_result(fields: tuple, components: np.ndarray) -> FilterResult:
-    """A FilterResult; with the observed components where FilterResult has that field
-    (``bf.kalman`` adds it with partly-missing rows)."""
-    if "observed_components" in FilterResult._fields:
-        return FilterResult(*fields, observed_components=components)
-    return FilterResult(*fields)
-
-
 def _check_ys(ys, m: int, where: str):
     """ys (T, m) (a 1-D array when m = 1), with the masks of observed rows and components."""
     if m == 1 and np.ndim(ys) == 1:
@@ -802,5 +781,5 @@ def unscented_kalman_filter(model, ys, alpha=1.0, beta=2.0, kappa=0.0, us=None) 
                         "make the UT's covariances indefinite; a larger alpha or kappa avoids it)")
             raise ValueError(f"{where}, step t = {t}: {exc}{hint}") from None
         means[t], covs[t] = x, P
-    return _filter_result((means, covs, pred_means, pred_covs, innovations, innovation_covs,
-                           gains, step_logliks, float(step_logliks.sum()), observed), components)
+    return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
+                        gains, step_logliks, float(step_logliks.sum()), observed, components)
