@@ -45,6 +45,23 @@ so that, by the union bound, a correct result fails with probability below
 use (thousands of draws; an entry whose exact SE is zero, such as the
 frequency of an impossible cell, must match exactly). A wrong derivation is
 typically off by many SE and fails.
+
+Where the normal approximation is not good enough (skewed variables, such as
+importance weights or squared deviations, whose sample means have heavier
+tails than a normal's at :math:`z_k`), a bounded variable has limits that hold
+for every sample size: **Bernstein's inequality** (:func:`bernstein_limits`,
+:func:`mc_bounded`). For the mean :math:`\bar h` of :math:`n` independent
+draws of a variable with mean :math:`\mu`, standard deviation :math:`\sigma`
+and :math:`h - \mu \le b`,
+
+.. math:: P(\bar h - \mu \ge \varepsilon) \le
+   \exp\!\Big(-\frac{n \varepsilon^2}{2\sigma^2 + 2 b \varepsilon / 3}\Big),
+
+so with :math:`L = \log(2k/\alpha)` each side's limit is
+:math:`\varepsilon(b) = \frac{bL}{3n} + \sqrt{(\frac{bL}{3n})^2 + \frac{2\sigma^2 L}{n}}`
+and ``k`` comparisons fail together with probability below :math:`\alpha`,
+for any :math:`n` and without an approximation. The limits are wider than the
+normal ones: that is their price.
 """
 
 from __future__ import annotations
@@ -55,7 +72,7 @@ from statistics import NormalDist
 import numpy as np
 
 __all__ = ["z_limit", "agree", "within", "mean_se", "mc_mean", "mc_moments", "mc_frequencies",
-           "together", "report", "forget"]
+           "bernstein_limits", "mc_bounded", "together", "report", "forget"]
 
 ALPHA = 1e-4
 """Largest probability that a Monte Carlo check fails on a correct result."""
@@ -343,6 +360,95 @@ def mc_moments(label: str, draws, mean, cov) -> None:
     ses = np.concatenate([np.sqrt(diag / M), np.sqrt((np.outer(diag, diag) + cov**2) / M)[iu]])
     k = d + len(iu[0])
     _report(label, _in_se(label, gaps, ses), k, z_limit(k), "a sample mean or covariance entry")
+
+
+def bernstein_limits(values, probs, n: int, k: int = 1, alpha: float = ALPHA):
+    r"""Limits for the mean of ``n`` draws of a bounded variable, minus its exact mean.
+
+    Parameters
+    ----------
+    values : array_like, shape (K,)
+        The values h the variable takes (a discrete support, or a fine
+        quadrature grid of a continuous variable).
+    probs : array_like, shape (K,)
+        Their probabilities (a probability mass function, or the density times
+        the grid's cell width); they must sum to 1 within 1e-6 and are
+        normalised.
+    n : int
+        Number of independent draws averaged.
+    k : int
+        Number of comparisons made at once (union bound).
+    alpha : float
+        Largest false-alarm probability of the ``k`` comparisons together.
+
+    Returns
+    -------
+    low, high : float
+        A correct sample mean minus the exact mean falls below ``low`` (or above
+        ``high``) with probability below ``alpha / (2 k)``, by Bernstein's
+        inequality (module docstring), for any ``n``.
+    """
+    values = np.asarray(values, dtype=float)
+    probs = np.asarray(probs, dtype=float)
+    if values.ndim != 1 or probs.shape != values.shape:
+        raise ValueError(f"values, probs: expected two 1-D arrays of one length, got shapes "
+                         f"{values.shape} and {probs.shape}")
+    if not (np.isfinite(values).all() and np.isfinite(probs).all()) or (probs < 0).any():
+        raise ValueError("values, probs: expected finite values and non-negative probabilities")
+    if abs(probs.sum() - 1.0) > 1e-6:
+        raise ValueError(f"probs: expected probabilities summing to 1 (within 1e-6), got a "
+                         f"sum of {probs.sum():.8g}")
+    if int(n) != n or n < 1:
+        raise ValueError(f"n: expected a positive integer (draws averaged), got {n!r}")
+    if int(k) != k or k < 1:
+        raise ValueError(f"k: expected a positive integer (comparisons), got {k!r}")
+    probs = probs / probs.sum()
+    support = probs > 0
+    mean = float(probs @ values)
+    sd = float(np.sqrt(probs @ (values - mean) ** 2))
+    L = np.log(2 * k / alpha)
+
+    def eps(b):
+        # epsilon(b) = b L / (3 n) + sqrt((b L / (3 n))^2 + 2 sigma^2 L / n)
+        return b * L / (3 * n) + np.sqrt((b * L / (3 * n)) ** 2 + 2 * sd**2 * L / n)
+
+    return (-float(eps(mean - values[support].min())),
+            float(eps(values[support].max() - mean)))
+
+
+def mc_bounded(label: str, draws, values, probs, k: int = 1) -> None:
+    r"""Check the mean of draws of a bounded variable by Bernstein's inequality.
+
+    Parameters
+    ----------
+    label : str
+        What is compared.
+    draws : array_like, shape (n,)
+        ``n`` independent draws of the variable.
+    values, probs : array_like, shape (K,)
+        The values it can take and their probabilities (or a quadrature grid):
+        see :func:`bernstein_limits`; the exact mean is ``probs @ values``.
+    k : int
+        Number of comparisons made at once, for the union bound (this check
+        counts as one of them).
+
+    Notes
+    -----
+    No normal approximation: a correct result fails with probability below
+    ``ALPHA / k`` for any number of draws (module docstring).
+    """
+    draws = np.asarray(draws, dtype=float)
+    if draws.ndim != 1 or draws.size < 1:
+        raise ValueError(f"draws: expected a 1-D array of draws, got shape {draws.shape}")
+    low, high = bernstein_limits(values, probs, draws.size, k)
+    probs = np.asarray(probs, dtype=float)
+    gap = float(draws.mean() - (probs / probs.sum()) @ np.asarray(values, dtype=float))
+    if np.isnan(gap) or not low <= gap <= high:
+        raise AssertionError(f"{label}: the sample mean is {gap:+.4g} from the exact mean, outside "
+                             f"Bernstein's limits [{low:.4g}, {high:.4g}]; a correct result falls "
+                             f"outside with probability < {ALPHA / k:.0e}")
+    _passed(label, f"{gap:+.3g} from the exact mean, inside Bernstein's limits "
+                   f"[{low:.3g}, {high:.3g}] ({k} comparisons)")
 
 
 def mc_frequencies(label: str, draws, probs) -> None:

@@ -128,3 +128,38 @@ def test_together_prints_one_line_and_fails_with_the_first_failing_check(capsys)
     with pytest.raises(ValueError, match="no check"):
         with bf.verify.together("empty"):
             pass
+
+
+def test_bernstein_limits_against_the_inequality_written_out_and_a_simulation():
+    # a fair die: values 1..6, mean 3.5, variance 35/12; b = 2.5 on both sides
+    values, probs, n = np.arange(1.0, 7.0), np.full(6, 1 / 6), 50
+    low, high = bf.verify.bernstein_limits(values, probs, n, k=2)
+    L = math.log(4 / 1e-4)
+    # Bernstein's bound at the limit equals alpha / (2 k) exactly
+    for eps in (high, -low):
+        assert math.isclose(math.exp(-n * eps**2 / (2 * 35 / 12 + 2 * 2.5 * eps / 3)),
+                            1e-4 / 4, rel_tol=1e-9)
+    assert math.isclose(high, -low) and high > 0
+    # the limits hold: the exact law of the sum of 50 rolls (repeated convolution) puts
+    # less than alpha / (2 k) beyond each limit
+    pmf = np.ones(1)
+    for _ in range(n):
+        pmf = np.convolve(pmf, probs)
+    mean_minus = np.arange(n, 6 * n + 1) / n - 3.5          # the sample mean minus 3.5
+    assert pmf[mean_minus > high].sum() < 1e-4 / 4 and pmf[mean_minus < low].sum() < 1e-4 / 4
+    # they are wider than the normal limit of the same false-alarm level
+    assert high > bf.verify.z_limit(2) * math.sqrt(35 / 12 / n)
+    with pytest.raises(ValueError, match="probs"):
+        bf.verify.bernstein_limits(values, np.full(6, 0.2), n)
+    with pytest.raises(ValueError, match="n"):
+        bf.verify.bernstein_limits(values, probs, 0)
+
+
+def test_mc_bounded_accepts_a_correct_mean_and_rejects_a_biased_one(capsys):
+    bf.verify.forget()
+    values, probs = np.array([0.0, 1.0]), np.array([0.9, 0.1])
+    draws = (np.random.default_rng(1).random(10_000) < 0.1).astype(float)
+    bf.verify.mc_bounded("rare successes agree with p = 0.1", draws, values, probs)
+    assert capsys.readouterr().out == "\u2713 rare successes agree with p = 0.1\n"
+    with pytest.raises(AssertionError, match="Bernstein"):
+        bf.verify.mc_bounded("p = 0.13", draws, values, np.array([0.87, 0.13]))
