@@ -7,7 +7,8 @@ computes :math:`p(x_t \mid y_{0:t})`. Offline work asks "where was it
 after t. Every smoother of this module runs the filter forward once and then
 sweeps backward, from :math:`t = T-1` (where filter and smoother agree) down
 to :math:`t = 0`, with one recursion (Särkkä 2013, *Bayesian Filtering and
-Smoothing*, Theorem 8.1):
+Smoothing*, first edition, Theorem 8.1; the second edition, Särkkä & Svensson
+2023, numbers its chapters differently):
 
 .. math::
 
@@ -41,7 +42,8 @@ Four smoothers, one per kind of filter:
 * :func:`ffbsi` - forward filtering, backward simulation (Godsill, Doucet &
   West 2004; Särkkä 2013, ch. 11): draws whole trajectories backward through
   the stored particle clouds, choosing at each step among *all* N particles
-  of that time, weighted by filter weight times transition density.
+  of that time, weighted by filter weight times transition density. It needs
+  that density, so not for a model whose noise misses some state component.
 
 Import it as ``bf.smoothing``::
 
@@ -71,10 +73,11 @@ filterpy map: ``filterpy.kalman.rts_smoother(Xs, Ps, Fs, Qs)`` (and the
 method ``KalmanFilter.rts_smoother``) returns ``(x, P, K, Pp)``: ``x`` and
 ``P`` are :func:`rts_smoother`'s ``means`` and ``covs``, its ``K`` is the
 smoother gain :math:`J_t` (with a zero last entry), and its ``Pp`` are the
-predicted covariances. filterpy recomputes the prediction as ``F x``, so it
-ignores a control input (:func:`rts_smoother` reads the filter's predicted
-means, which include :math:`B u_t`). filterpy has no particle or grid
-smoother.
+predicted covariances. filterpy recomputes the prediction as ``F x`` and has
+no argument for a control input, so it cannot smooth a record filtered with
+inputs (its loop must be copied and :math:`B u_t` added);
+:func:`rts_smoother` reads the filter's predicted means, which include
+:math:`B u_t`. filterpy has no particle or grid smoother.
 """
 
 from __future__ import annotations
@@ -84,11 +87,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy import linalg as sla
 
-from . import bayes
 from ._checks import as_array, as_int, as_matrix, as_rng
 from .bayes import GridFilterResult
 from .kalman import FilterResult
-from .models import LinearGaussian
+from .models import LinearGaussian, NonlinearGaussian, _ModelBase
 from .particle import ParticleHistory
 
 __all__ = [
@@ -257,11 +259,41 @@ def _check_filter_result(model: LinearGaussian, result) -> bool:
                              f"{means.shape}, got shape {got}")
     for name in ("covs", "pred_means", "pred_covs"):
         as_array(f"result.{name}", getattr(result, name))  # finite
+    seen = getattr(result, "observed_components", None)
+    if seen is not None and np.shape(seen) != lead + (T, model.obs_dim):
+        raise ValueError(f"result.observed_components must have shape "
+                         f"{lead + (T, model.obs_dim)} to match result.means {means.shape} "
+                         f"and the model's {model.obs_dim} measured components, got shape "
+                         f"{np.shape(seen)}")
     return batched
 
 
-def _check_dynamics(model, covs, pred_covs, means, pred_means, where: str):
-    """The filter's predictions must be this model's: P_{t+1|t} = A P_{t|t} A^T + G Q G^T."""
+def _check_us(model, us, T: int, M: int | None):
+    """The inputs u_0..u_{T-2} as (R, T - 1, p), R = 1 or M, or None; like kalman_filter's."""
+    if us is None:
+        return None
+    if model.B is None:
+        raise ValueError("us was given but the model has no control matrix B")
+    p = model.control_dim
+    a = as_array("us", us)
+    shared = a.ndim == 2 and a.shape[1] == p
+    if not (shared or (M is not None and a.ndim == 3 and a.shape[0] == M and a.shape[2] == p)):
+        want = f"(T - 1, {p})" + ("" if M is None else f" or ({M}, T - 1, {p})")
+        raise ValueError(f"us must have shape {want}, got shape {a.shape}")
+    if a.shape[-2] not in (T - 1, T):
+        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {a.shape[-2]}")
+    a = a[..., :T - 1, :]
+    return a[None] if shared else a
+
+
+def _check_dynamics(model, covs, pred_covs, means, pred_means, Bus, runs: list[str]):
+    """The filter's predictions must be this model's (and these inputs').
+
+    P_{t+1|t} = A P_{t|t} A^T + G Q G^T always; x_{t+1|t} = A x_{t|t} + B u_t when the
+    inputs are known (Bus, rows B u_t) or the model has no B; otherwise only
+    x_{t+1|t} - A x_{t|t} in the range of B can be checked. means, pred_means (R, T, n)
+    are R runs that share covs, pred_covs; runs[r] names run r in a message.
+    """
     A, GQGt = model.A, model.G @ model.Q @ model.G.T
     scale = max(float(np.max(np.abs(pred_covs))), 1e-300)
     gap = np.abs(A @ covs[:-1] @ A.T + GQGt - pred_covs[1:]).max(axis=(1, 2), initial=0.0)
@@ -270,21 +302,29 @@ def _check_dynamics(model, covs, pred_covs, means, pred_means, where: str):
     if first > 1e-8 * scale or bad.size:
         t = 0 if first > 1e-8 * scale else int(bad[0]) + 1
         raise ValueError(
-            f"result does not come from this model{where}: its pred_covs[{t}] is not "
+            f"result does not come from this model{runs[0]}: its pred_covs[{t}] is not "
             + ("model.P0" if t == 0 else f"A covs[{t - 1}] A^T + G Q G^T")
             + "; smooth with the model that the filter ran on")
-    if model.B is None:
-        # no control input: x_{t+1|t} = A x_{t|t}
-        mscale = max(float(np.max(np.abs(pred_means))), 1.0)
-        off = np.abs(means[:, :-1] @ A.T - pred_means[:, 1:]).max(axis=(0, 2), initial=0.0)
-        bad = np.flatnonzero(off > 1e-8 * mscale)
-        if bad.size:
-            raise ValueError(f"result does not come from this model{where}: its "
-                             f"pred_means[{int(bad[0]) + 1}] is not A means[{int(bad[0])}] "
-                             "(and the model has no control matrix B)")
+    mscale = max(float(np.max(np.abs(pred_means), initial=0.0)), 1.0)
+    # what the filter added to A x_{t|t}: B u_t (zero without inputs)
+    pushed = pred_means[:, 1:] - means[:, :-1] @ A.T
+    if Bus is not None:
+        off, what = pushed - Bus, "A means[{t}] + B us[{t}]"
+    elif model.B is None:
+        off, what = pushed, "A means[{t}] (and the model has no control matrix B)"
+    else:
+        # unknown inputs: only the part of B u_t outside the range of B can be seen
+        Qb, _ = np.linalg.qr(model.B)
+        off, what = pushed - pushed @ Qb @ Qb.T, "A means[{t}] + B u for any input u"
+    bad = np.argwhere(np.abs(off).max(axis=2, initial=0.0) > 1e-8 * mscale)  # (run, t)
+    if bad.size:
+        r, t = (int(i) for i in bad[np.argmin(bad[:, 1])])
+        raise ValueError(f"result does not come from this model{runs[r]}: its "
+                         f"pred_means[{t + 1}] is not " + what.format(t=t)
+                         + ("" if Bus is None else ": were these the inputs the filter ran with?"))
 
 
-def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
+def rts_smoother(model: LinearGaussian, result: FilterResult, us=None) -> SmootherResult:
     r"""The Rauch-Tung-Striebel smoother: :math:`p(x_t \mid y_{0:T-1})`, linear-Gaussian model.
 
     From the Kalman filter's output, backward for t = T-2, ..., 0
@@ -303,13 +343,19 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
     filtered and predicted means and covariances and the model's ``A``
     (and ``G Q G^T`` to check that ``result`` belongs to ``model``).
 
-    * **Missing measurements** need nothing special: on an all-NaN row the
-      filter's belief is its prediction, and the same recursion applies.
-    * **Control inputs** need no ``us``: the input enters only the predicted
+    * **Missing measurements** need nothing special, whole rows or some
+      components of a row: the recursion reads only the filter's means,
+      covariances and predictions, which already used exactly the components
+      that were observed (on an all-NaN row the filtered belief is the
+      prediction).
+    * **Control inputs** are not needed: the input enters only the predicted
       mean :math:`\hat x_{t+1|t} = A\hat x_{t|t} + B u_t`, which the filter
       result already holds, and not the covariances or the gain (a known
       input shifts :math:`x_{t+1}` without changing how it co-varies with
-      :math:`x_t`).
+      :math:`x_t`). The smoothed means are therefore those of the inputs the
+      filter ran with, whatever they were. Pass ``us`` to have that checked;
+      without it only :math:`\hat x_{t+1|t} - A\hat x_{t|t}` in the range of
+      B can be checked, so a result filtered with other inputs is not noticed.
     * **A singular** :math:`P_{t+1|t}` (part of the state known exactly, with
       no noise reaching it) uses its Moore-Penrose inverse; the smoothed
       means and covariances are then the exact conditional ones (see
@@ -323,7 +369,11 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
         ``bf.kalman.kalman_filter(model, ys)`` (with or without ``us``), or
         ``bf.kalman.batch_kalman_filter(model, ys)`` for M runs at once (the
         covariances and gains are then computed once per missing-data
-        pattern).
+        pattern, component by component).
+    us : array_like, shape (T - 1, p) or (M, T - 1, p), optional
+        The inputs the filter ran with, used only to check that
+        ``result.pred_means`` are :math:`A\hat x_{t|t} + B u_t` (T rows are
+        accepted, the last ignored, as in ``kalman_filter``).
 
     Returns
     -------
@@ -337,8 +387,10 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
     TypeError
         If ``model`` is not a LinearGaussian or ``result`` not a FilterResult.
     ValueError
-        If the shapes of ``result`` do not match the model, or its predicted
-        covariances are not this model's (a result of another model).
+        If the shapes of ``result`` do not match the model, its predicted
+        covariances are not this model's (a result of another model), or its
+        predicted means are not :math:`A\hat x_{t|t} + B u_t` (for the given
+        ``us``; for some input when ``us`` is not given).
 
     Notes
     -----
@@ -349,14 +401,16 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
     means, covs = np.asarray(result.means, float), np.asarray(result.covs, float)
     pred_means = np.asarray(result.pred_means, float)
     pred_covs = np.asarray(result.pred_covs, float)
-    # which measurements each run had: runs with the same pattern share their covariances
-    # and gains (batch_kalman_filter); the components if the result records them
+    # which components of y_t each run measured (the rows only, for a result built without
+    # observed_components): runs with one pattern share covariances and gains
     seen = getattr(result, "observed_components", None)
     seen = np.asarray(result.observed if seen is None else seen, dtype=bool)
     if not batched:
         means, covs, pred_means, pred_covs, seen = (
             a[None] for a in (means, covs, pred_means, pred_covs, seen))
     M, T, n = means.shape
+    us = _check_us(model, us, T, M if batched else None)
+    Bus = None if us is None else us @ model.B.T          # rows B u_t: (1 or M, T - 1, n)
     patterns, which = np.unique(seen.reshape(M, -1), axis=0, return_inverse=True)
     which = which.reshape(-1)
     out_means, out_covs = np.empty((M, T, n)), np.empty((M, T, n, n))
@@ -364,14 +418,15 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
     for p in range(patterns.shape[0]):
         runs = np.flatnonzero(which == p)
         k = runs[0]
-        where = "" if not batched else f" (run {k})"
         if not (np.array_equal(covs[runs], np.broadcast_to(covs[k], covs[runs].shape))
                 and np.array_equal(pred_covs[runs],
                                    np.broadcast_to(pred_covs[k], pred_covs[runs].shape))):
             raise ValueError("result.covs differ between runs with the same missing "
                              "measurements: a batched result must come from "
                              "bf.kalman.batch_kalman_filter")
-        _check_dynamics(model, covs[k], pred_covs[k], means[runs], pred_means[runs], where)
+        _check_dynamics(model, covs[k], pred_covs[k], means[runs], pred_means[runs],
+                        None if Bus is None else Bus if Bus.shape[0] == 1 else Bus[runs],
+                        [f" (run {r})" if batched else "" for r in runs])
         J, P_s, C_s = _covariance_pass(model.A, covs[k], pred_covs[k])
         out_means[runs] = _mean_pass(J, means[runs], pred_means[runs])
         out_covs[runs], gains[runs], cross[runs] = P_s, J, C_s
@@ -384,17 +439,42 @@ def rts_smoother(model: LinearGaussian, result: FilterResult) -> SmootherResult:
 # The grid smoother
 # --------------------------------------------------------------------------
 
+def _gaussian_transition(model) -> bool:
+    """True for a model of bf.models whose transition density is its own Gaussian one."""
+    return (isinstance(model, (LinearGaussian, NonlinearGaussian))
+            and type(model).transition_logpdf is _ModelBase.transition_logpdf)
+
+
 def _grid_transition(model, g, t):
-    """transition[i, j] ∝ p(x_{t+1} = g_j | x_t = g_i), rows normalised (as grid_filter)."""
-    cells = g[:, None]
-    x_from, x_to = np.repeat(cells, g.shape[0], axis=0), np.tile(cells, (g.shape[0], 1))
-    log_p = model.transition_logpdf(x_to, x_from, t=t).reshape(g.shape[0], -1)
+    """transition[i, j] ∝ p(x_{t+1} = g_j | x_t = g_i), rows normalised (as grid_filter).
+
+    For the course's models the density is N(g_j; f_t(g_i), G Q G^T): n means, then one
+    subtraction per pair. Any other model: ``transition_logpdf`` on all n^2 pairs, as
+    ``grid_filter`` does; the two agree to rounding.
+    """
+    if _gaussian_transition(model):
+        var = float((model.G @ model.Q @ model.G.T)[0, 0])
+        if not var > 0:
+            raise ValueError("grid_smoother needs a transition density: G Q G^T is 0")
+        # the mean of x_{t+1} from each cell, f_t(g_i) (or A g_i)
+        mean = model.transition_mean(g[:, None], t=t)[:, 0]
+        # log p(x_{t+1} = g_j | x_t = g_i) = -(g_j - f_t(g_i))^2 / (2 G Q G^T) + const
+        log_p = np.subtract(g[None, :], mean[:, None])
+        np.square(log_p, out=log_p)
+        log_p *= -0.5 / var
+    else:
+        cells = g[:, None]
+        x_from, x_to = np.repeat(cells, g.shape[0], axis=0), np.tile(cells, (g.shape[0], 1))
+        log_p = model.transition_logpdf(x_to, x_from, t=t).reshape(g.shape[0], -1)
     top = log_p.max(axis=1, keepdims=True)
     if np.any(top == -np.inf):
         raise ValueError(f"grid_smoother, step t = {t}: the transition density is zero on the "
                          "whole grid from some cell: widen the grid")
-    vals = np.exp(log_p - top)
-    return vals / vals.sum(axis=1, keepdims=True)
+    # exp(log_p - top), each row normalised (in place: n^2 numbers per step)
+    log_p -= top
+    vals = np.exp(log_p, out=log_p)
+    vals /= vals.sum(axis=1, keepdims=True)
+    return vals
 
 
 def grid_smoother(model, result: GridFilterResult) -> GridSmootherResult:
@@ -432,7 +512,12 @@ def grid_smoother(model, result: GridFilterResult) -> GridSmootherResult:
     Notes
     -----
     Cost O(T n^2), as the filter: for a time-varying model the (n, n)
-    transition is rebuilt at every step.
+    transition is rebuilt at every step. For the models of ``bf.models``
+    (a Gaussian transition) it is built from the n transition means
+    :math:`f_t(g_i)` and :math:`G Q G^T`, not from n^2 calls of the density,
+    which makes the smoother several times faster than ``grid_filter``
+    (that does not return its transitions: storing them would take
+    T n^2 numbers, 250 MB for chapter 07's 801 cells and 50 steps).
     """
     if getattr(model, "state_dim", None) != 1:
         raise ValueError(f"grid_smoother needs a model with a scalar state (state_dim 1), got "
@@ -454,7 +539,7 @@ def grid_smoother(model, result: GridFilterResult) -> GridSmootherResult:
         if trans is None or time_varying:
             trans = _grid_transition(model, g, t)
         # the filter's prediction p(x_{t+1} | y_0:t) = sum_k p(x_t = g_k | y_0:t) T_kj
-        pred = bayes.predict(filt[t], trans)
+        pred = filt[t] @ trans
         # what the later measurements taught about x_{t+1}: smoothed / predicted (0/0 = 0)
         ratio = np.divide(smoothed[t + 1], pred, out=np.zeros_like(pred), where=pred > 0)
         # p(x_t = g_i | y_0:T-1) = p(x_t = g_i | y_0:t) sum_j T_ij ratio_j
@@ -551,9 +636,21 @@ def ffbsi(model, history: ParticleHistory, n_paths: int, rng, us=None) -> Backwa
 
     Cost: one transition density per (trajectory, particle, step), O(N L T)
     evaluations and memory O(N L) per step (in chunks of at most
-    ``FFBSI_CHUNK`` pairs). For N = 1000, L = 100 and T = 50 that is
-    five million densities. Given the particle filter's output the L
-    trajectories are independent.
+    ``FFBSI_CHUNK`` pairs), besides the filter's history, O(N T). For
+    N = 1000, L = 100 and T = 50 that is five million densities. Given the
+    particle filter's output the L trajectories are independent. Two
+    relatives: the marginal smoother FFBSm (Hürzeler & Künsch 1998; Doucet,
+    Godsill & Andrieu 2000; Särkkä 2013, section 11.3) runs step 2 on
+    probabilities instead of draws, O(N^2 T), exact given the particles but
+    for marginals only; chapter 07 writes it in a few lines as FFBSi's check.
+    Rejection-sampling FFBSi (Douc, Garivier, Moulines & Olsson 2011) draws
+    step 2 with an expected O(N T) cost when the transition density is
+    bounded (not implemented here).
+
+    FFBSi needs the transition *density*. A model whose noise does not reach
+    every state component (:math:`G Q G^T` singular, e.g. the damped
+    particle, whose positions follow the velocities exactly) has none; its
+    backward simulation needs other methods (Lindsten & Schön 2013).
 
     Parameters
     ----------

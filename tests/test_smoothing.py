@@ -35,7 +35,7 @@ from bayesfilt.smoothing import ffbsi, genealogy, grid_smoother, rts_smoother
 # ---------------------------------------------------------------------------
 
 def joint_conditional(A, C, Q, R, m0, P0, G, B, us, ys):
-    """E and cov of x_{0:T-1} given the observed rows of ys, by stacking everything.
+    """E and cov of x_{0:T-1} given the measured entries of ys, by stacking everything.
 
     x_t = mu_t + Phi_t z with z = (x_0 - m0, w_0, ..., w_{T-2}) ~ N(0, diag(P0, Q, ..., Q))
     and mu_t = A^t m0 + sum_{s<t} A^{t-1-s} B u_s; the observed y_t = C x_t + v_t.
@@ -56,15 +56,20 @@ def joint_conditional(A, C, Q, R, m0, P0, G, B, us, ys):
     for s in range(T - 1):
         Sz[n + s * q:n + (s + 1) * q, n + s * q:n + (s + 1) * q] = Q
     Sxx = Phi @ Sz @ Phi.T
-    observed = [t for t in range(T) if not np.isnan(ys[t]).all()]
-    Cbar = np.zeros((len(observed) * m, T * n))
-    Rbar = np.zeros((len(observed) * m,) * 2)
-    for k, t in enumerate(observed):
-        Cbar[k * m:(k + 1) * m, t * n:(t + 1) * n] = C
-        Rbar[k * m:(k + 1) * m, k * m:(k + 1) * m] = R
+    # one block of rows per step, for the components of y_t that were measured (not NaN):
+    # y_{t,o} = C_o x_t + v_{t,o}, v_{t,o} ~ N(0, R_oo)
+    seen = ~np.isnan(ys)
+    k = int(seen.sum())
+    Cbar, Rbar = np.zeros((k, T * n)), np.zeros((k, k))
+    row = 0
+    for t in range(T):
+        o = np.flatnonzero(seen[t])
+        Cbar[row:row + o.size, t * n:(t + 1) * n] = C[o]
+        Rbar[row:row + o.size, row:row + o.size] = R[np.ix_(o, o)]
+        row += o.size
     mean, cov = mu.reshape(-1), Sxx
-    if observed:
-        y = np.concatenate([ys[t] for t in observed])
+    if k:
+        y = ys[seen]                                  # row by row, the measured components
         Sxy, Syy = Sxx @ Cbar.T, Cbar @ Sxx @ Cbar.T + Rbar
         mean = mean + Sxy @ np.linalg.solve(Syy, y - Cbar @ mean)
         cov = Sxx - Sxy @ np.linalg.solve(Syy, Sxy.T)
@@ -78,10 +83,16 @@ def _covariance(rng, k):
     return M @ M.T / k + 0.3 * np.eye(k)
 
 
-def _random_case(seed):
-    """A random linear model (n <= 3, m <= 2, q <= 2, p <= 2), inputs, and a record with gaps."""
+def _random_case(seed, components=False):
+    """A random linear model (n <= 3, m <= 2, q <= 2, p <= 2), inputs, and a record with gaps.
+
+    components=True: m = 2 or 3, and about 30 % of the components of y are missing one by one
+    (partly-NaN rows; some rows lose everything) instead of whole rows.
+    """
     rng = np.random.default_rng(seed)
     n, m, q, p = (int(k) for k in rng.integers(1, [4, 3, 3, 3]))
+    if components:
+        m = int(rng.integers(2, 4))
     T = int(rng.integers(2, 11))
     mats = dict(A=rng.normal(size=(n, n)) / np.sqrt(n), C=rng.normal(size=(m, n)),
                 Q=_covariance(rng, q), R=_covariance(rng, m), m0=rng.normal(size=n),
@@ -89,7 +100,10 @@ def _random_case(seed):
     model = bf.models.LinearGaussian(**mats)
     us = rng.normal(size=(T - 1, p))
     ys = bf.models.simulate(model, T, rng, us=us).ys
-    ys[rng.random(T) < 0.3] = np.nan                         # missing rows, anywhere
+    if components:
+        ys[rng.random(ys.shape) < 0.3] = np.nan              # missing components, anywhere
+    else:
+        ys[rng.random(T) < 0.3] = np.nan                     # missing rows, anywhere
     return model, mats, us, ys
 
 
@@ -103,6 +117,30 @@ def test_rts_equals_the_conditional_of_the_whole_joint_gaussian(seed):
     np.testing.assert_allclose(smooth.cross_covs, cross, rtol=0, atol=1e-8)
     T, n = means.shape
     assert smooth.gains.shape == (T - 1, n, n)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_rts_with_partly_missing_rows_equals_the_conditional_of_the_whole_joint_gaussian(seed):
+    """About 30 % of the components missing one by one: the filter updates with the measured
+    components, and the smoother needs nothing more (it reads the filter's output)."""
+    model, mats, us, ys = _random_case(100 + seed, components=True)
+    res = bf.kalman.kalman_filter(model, ys, us=us)
+    np.testing.assert_array_equal(res.observed_components, ~np.isnan(ys))
+    smooth = rts_smoother(model, res, us=us)
+    means, covs, cross = joint_conditional(**mats, us=us, ys=ys)
+    np.testing.assert_allclose(smooth.means, means, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(smooth.covs, covs, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(smooth.cross_covs, cross, rtol=0, atol=1e-8)
+
+
+def test_the_random_records_have_partly_missing_rows():
+    """The test above is not vacuous: rows with some, but not all, components missing."""
+    partly = 0
+    for seed in range(12):
+        ys = _random_case(100 + seed, components=True)[3]
+        gone = np.isnan(ys)
+        partly += int(np.sum(gone.any(axis=1) & ~gone.all(axis=1)))
+    assert partly >= 20
 
 
 def test_rts_gain_is_the_regression_slope_of_x_t_on_x_t_plus_1():
@@ -153,6 +191,26 @@ def test_rts_of_a_batched_result_equals_one_run_at_a_time():
                                        rtol=0, atol=1e-12)
 
 
+def test_rts_of_a_batched_result_with_partly_missing_rows_groups_runs_by_component():
+    """Runs 0 and 1 miss the same rows but different components: their covariances differ,
+    so the smoother must group the runs by component pattern (observed_components)."""
+    model, _, us, _ = _random_case(7, components=True)
+    rng = np.random.default_rng(70)
+    T = us.shape[0] + 1
+    ys = bf.models.simulate_many(model, 4, T, rng, us=us).ys
+    ys[0, 1, 0] = np.nan
+    ys[1, 1, 1] = np.nan
+    ys[2, 0] = np.nan
+    res = bf.kalman.batch_kalman_filter(model, ys, us=us)
+    np.testing.assert_array_equal(res.observed[0], res.observed[1])
+    batch = rts_smoother(model, res, us=us)
+    for k in range(4):
+        one = rts_smoother(model, bf.kalman.kalman_filter(model, ys[k], us=us))
+        for field in one._fields:
+            np.testing.assert_allclose(getattr(batch, field)[k], getattr(one, field),
+                                       rtol=0, atol=1e-12)
+
+
 def test_rts_at_one_step_is_the_filter():
     model, _, _, _ = _random_case(1)
     ys = bf.models.simulate(model, 1, np.random.default_rng(1)).ys
@@ -160,6 +218,45 @@ def test_rts_at_one_step_is_the_filter():
     smooth = rts_smoother(model, res)
     np.testing.assert_array_equal(smooth.means, res.means)
     assert smooth.gains.shape == (0, model.state_dim, model.state_dim)
+
+
+def test_rts_checks_the_inputs_when_given_and_the_range_of_b_otherwise():
+    """A result filtered with other inputs: refused when us is given; without us it is the
+    exact smoother of the inputs the filter ran with (documented). Predicted means that no
+    input could produce (outside A x + range(B)) are refused either way."""
+    model, mats, us, ys = _random_case(4)
+    other = us + 1.0
+    res = bf.kalman.kalman_filter(model, ys, us=other)
+    with pytest.raises(ValueError, match=r"pred_means\[1\] is not A means\[0\] \+ B us\[0\].*"
+                                         r"inputs the filter ran with"):
+        rts_smoother(model, res, us=us)
+    smooth = rts_smoother(model, res)                       # no us: smoothed for `other`
+    means, _, _ = joint_conditional(**mats, us=other, ys=ys)
+    np.testing.assert_allclose(smooth.means, means, rtol=0, atol=1e-8)
+    assert model.control_dim < model.state_dim              # B has a left null space
+    out = np.linalg.svd(model.B)[0][:, -1]                  # a shift outside the range of B
+    with pytest.raises(ValueError, match=r"pred_means\[2\] is not A means\[1\] \+ B u for "
+                                         r"any input u"):
+        rts_smoother(model, res._replace(pred_means=res.pred_means + np.outer(
+            np.arange(ys.shape[0]) == 2, out)))
+    with pytest.raises(ValueError, match=r"us must have shape \(T - 1, "):
+        rts_smoother(model, res, us=us[:, :1].T)
+    with pytest.raises(ValueError, match="us must have T - 1"):
+        rts_smoother(model, res, us=us[:-1])
+
+
+def test_rts_with_inputs_on_a_batched_result():
+    model, _, us, _ = _random_case(5)
+    T = us.shape[0] + 1
+    ys = bf.models.simulate_many(model, 3, T, np.random.default_rng(51), us=us).ys
+    per_run = np.stack([us, 2 * us, -us])
+    res = bf.kalman.batch_kalman_filter(model, ys, us=per_run)
+    smooth = rts_smoother(model, res, us=per_run)
+    for k in range(3):
+        one = rts_smoother(model, bf.kalman.kalman_filter(model, ys[k], us=per_run[k]))
+        np.testing.assert_allclose(smooth.means[k], one.means, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match=r"run 1.*B us\[0\]"):
+        rts_smoother(model, res, us=us)
 
 
 # ---------------------------------------------------------------------------
@@ -266,6 +363,26 @@ def test_grid_smoother_last_step_is_the_filter_and_the_time_varying_model_runs()
     ratio = np.where(pred > 0, exact.posteriors[5] / np.where(pred > 0, pred, 1.0), 0.0)
     by_hand = filt.posteriors[4] * (trans @ ratio)
     np.testing.assert_allclose(exact.posteriors[4], by_hand / by_hand.sum(), rtol=0, atol=1e-12)
+
+
+def test_grid_smoother_builds_the_transition_of_the_model_either_way():
+    """The course's models: the transition from the n means f_t(g_i) and G Q G^T; a model that
+    overrides transition_logpdf: the density on every pair of cells. Same result to rounding,
+    on the time-varying UNGM."""
+    ungm = bf.models.ungm()
+
+    class Own(bf.models.NonlinearGaussian):
+        def transition_logpdf(self, x_next, xs, u=None, t=0):
+            return super().transition_logpdf(x_next, xs, u, t)
+
+    own = Own(f=ungm.f, h=ungm.h, F=ungm.F, H=ungm.H, Q=ungm.Q, R=ungm.R, m0=ungm.m0,
+              P0=ungm.P0, time_varying=True)
+    assert bf.smoothing._gaussian_transition(ungm) and not bf.smoothing._gaussian_transition(own)
+    ys = bf.models.simulate(ungm, 8, np.random.default_rng(5)).ys
+    grid = np.linspace(-40.0, 40.0, 401)
+    filt = bf.bayes.grid_filter(ungm, ys, grid)
+    fast, slow = grid_smoother(ungm, filt), grid_smoother(own, filt)
+    np.testing.assert_allclose(fast.posteriors, slow.posteriors, rtol=0, atol=1e-13)
 
 
 # ---------------------------------------------------------------------------
@@ -413,6 +530,44 @@ def test_ffbsi_agrees_with_the_grid_smoother_within_its_monte_carlo_error():
     assert worst <= z, f"FFBSi is {worst:.1f} SE from the grid smoother (limit {z:.1f})"
 
 
+def test_ffbsi_on_a_time_varying_model_agrees_with_the_rts_smoother_of_its_inputs():
+    """f_t(x) = 0.9 x + 3 cos(1.2 (t + 1)) as a time-varying NonlinearGaussian is the linear
+    model with B = 1 and u_t = 3 cos(1.2 (t + 1)): the RTS smoother with those inputs (exact,
+    checked against brute force above) pins the time index of every backward step.
+    Independent runs of particle filter + FFBSi, compared in standard errors (Student's t,
+    union bound over the T steps). The same test with the index off by one fails (below)."""
+    T, R, N, L = 10, 20, 300, 100
+    us = 3.0 * np.cos(1.2 * (np.arange(T - 1) + 1))[:, None]
+    lin = bf.models.LinearGaussian(A=[[0.9]], C=[[1.0]], Q=[[0.5]], R=[[0.4]], m0=[0.0],
+                                   P0=[[1.0]], B=[[1.0]])
+    ys = bf.models.simulate(lin, T, np.random.default_rng(30), us=us).ys
+    exact = rts_smoother(lin, bf.kalman.kalman_filter(lin, ys, us=us), us=us).means[:, 0]
+
+    class Late(bf.models.NonlinearGaussian):
+        # a backward step that reads the transition of the step after (t + 1)
+        def transition_logpdf(self, x_next, xs, u=None, t=0):
+            return super().transition_logpdf(x_next, xs, u, t + 1)
+
+    def model(kind):
+        return kind(f=lambda x, t: 0.9 * x + 3.0 * np.cos(1.2 * (t + 1)), h=lambda x: x,
+                    F=lambda x, t: np.array([[0.9]]), H=lambda x: np.array([[1.0]]), Q=[[0.5]],
+                    R=[[0.4]], m0=[0.0], P0=[[1.0]], time_varying=True)
+
+    def worst_se(tv):
+        rng = np.random.default_rng(31)
+        est = np.empty((R, T))
+        for r in range(R):
+            pf = bf.particle.particle_filter(tv, ys, N, rng, keep_history=True)
+            est[r] = ffbsi(tv, pf.history, L, rng).paths[:, :, 0].mean(axis=0)
+        mean, se = est.mean(axis=0), est.std(axis=0, ddof=1) / np.sqrt(R)
+        return np.max(np.abs(mean - exact) / se)
+
+    z = bf.verify.z_limit(T, dof=R - 1)
+    assert worst_se(model(bf.models.NonlinearGaussian)) <= z
+    late = worst_se(model(Late))
+    assert late > 3 * z, f"an off-by-one time index is only {late:.1f} SE off"
+
+
 def test_ffbsi_passes_the_inputs_and_the_time_index_to_the_transition():
     seen = []
 
@@ -462,6 +617,10 @@ def test_rts_bad_inputs(kalman_case):
         rts_smoother(bf.models.damped_particle(P0=2 * np.eye(4)), res)
     with pytest.raises(ValueError, match=r"does not come from this model.*pred_means\[1\]"):
         rts_smoother(model, res._replace(pred_means=res.pred_means + 1.0))
+    with pytest.raises(ValueError, match=r"result.observed_components must have shape \(10, 2\)"):
+        rts_smoother(model, res._replace(observed_components=res.observed_components[:-1]))
+    with pytest.raises(ValueError, match="us was given but the model has no control matrix B"):
+        rts_smoother(model, res, us=np.zeros((9, 1)))
 
 
 def test_grid_smoother_bad_inputs():
