@@ -112,7 +112,7 @@ def test_array_unnormalised_probability_vector_is_diagnosed():
 
 def test_array_non_symmetric_covariance_is_diagnosed():
     wrong = COV + np.array([[0.0, 0.1], [0.0, 0.0]])
-    assert_wrong(compare_array(wrong, COV, what="P"), "P is not symmetric", "should be a covariance",
+    assert_wrong(compare_array(wrong, COV, what="P"), "P is not symmetric", "a covariance (or a precision) is",
                  "max |A - A^T| = 0.1")
 
 

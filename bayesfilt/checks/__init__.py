@@ -424,9 +424,9 @@ def _guard(fun):
             before = ()
         bound = {k: space[k] for k in sorted(refs) if k in space and _is_data(space[k])}
         chapter = {}
-        for k, v in bound.items():
+        for k, v in bound.items():                      # drawing from a generator is no change
             with contextlib.suppress(Exception):        # a variable we cannot copy is not watched
-                chapter[k] = copy.deepcopy(v)
+                chapter.update({} if isinstance(v, np.random.Generator) else {k: copy.deepcopy(v)})
         try:
             with _budget(_active(), name, args, params):
                 out = fun(*args, **kwargs)
@@ -756,7 +756,7 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
         return _wrong(f"{what} does not sum to 1 (its entries sum to {a.sum():.4g}), but it is a "
                       f"probability vector.")
     if square and np.allclose(e, e.T) and not np.allclose(a, a.T):
-        return _wrong(f"{what} is not symmetric, but it should be a covariance "
+        return _wrong(f"{what} is not symmetric, but it should be: a covariance (or a precision) is "
                       f"(max |A - A^T| = {np.max(np.abs(a - a.T)):.3g}).")
     wrong = ~np.isclose(a, e, rtol=rtol, atol=atol)
     where = tuple(int(i) for i in np.argwhere(wrong)[0])
@@ -888,7 +888,9 @@ def _forbidden(fb: Feedback, fun, what: str, forbidden) -> Feedback:
     """``fb``, or a "Not yet" if a right function uses what the statement rules out."""
     if not fb.correct or not forbidden:
         return fb
-    names = code_names(fun)
+    space = getattr(inspect.unwrap(fun), "__globals__", {})
+    names = {k for k in code_names(fun)           # the student's own functions do not count
+             if not (_is_function(space.get(k)) and getattr(space[k], "__globals__", None) is space)}
     for needed, message in forbidden:
         if needed(fun) if callable(needed) else set(needed) <= names:
             return _wrong(f"{what} uses {message}")

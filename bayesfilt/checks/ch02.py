@@ -132,6 +132,8 @@ def exercise_3(info) -> Feedback:
         (P_inv + C.T @ R @ C, f"{w}: R is not inverted: the measurement contributes C^T R^{{-1}} C (a "
                               f"precise sensor, small R, adds much precision)."),
         (P_inv - meas, f"{w}: a measurement adds precision, it cannot remove it: check the sign of C^T R^{{-1}} C."),
+        (np.linalg.inv(P + C.T @ R @ C), f"{w}: you inverted the sum P + C^T R C; precisions add: P^{{-1}} + "
+                                         f"C^T R^{{-1}} C."),
     ])
 
 
@@ -146,7 +148,7 @@ def _uniform_grid_means(a: float, variant: str = "right") -> np.ndarray:
     """The grid filter's 10 posterior means on the 1-D model with w_t uniform on [-a, a]; or a mistake's."""
     (model, ys), g = _model_1d(), GRID_1D
     A, C, R = model.A[0, 0], model.C[0, 0], model.R[0, 0]
-    A, a = (1.0 if variant == "no A" else A), {"half": a / 2, "double": 2 * a}.get(variant, a)
+    A = 1.0 if variant == "no A" else A
 
     def pdf(x, mean, var):
         return np.exp(-0.5 * (x - mean) ** 2 / var) / np.sqrt(2 * np.pi * var)
@@ -160,9 +162,8 @@ def _uniform_grid_means(a: float, variant: str = "right") -> np.ndarray:
 
 _MEANS_MISTAKES = [
     ("priors", "these are the means of the predictions (run.priors); the exercise asks for the posteriors."),
-    ("no A", "the uniform noise is centred on x_prev; the state moves first: |x_next - 0.9 x_prev| <= a."),
-    ("half", "the noise is uniform on [-a/2, a/2]: the density is 1/(2a) where |x_next - 0.9 x_prev| <= a."),
-    ("double", "the noise is uniform on [-2a, 2a]: the density is 1/(2a) where |x_next - 0.9 x_prev| <= a."),
+    ("no A", "the state moves first: the uniform noise is centred on 0.9 x_prev, |x_next - 0.9 x_prev| <= a "
+             "(yours on x_prev)."),
     ("gaussian", "these are the means under section 10's Gaussian noise; replace its density by the "
                  "uniform one, 1/(2a) where |x_next - 0.9 x_prev| <= a.")]
 # meaning_4: the right option and its synonyms, and the wrong options' synonyms, as digests (not in clear)
@@ -207,12 +208,13 @@ def _agree_4(agree, a: float) -> Feedback:
     agreeing = list(np.flatnonzero(gaps < AGREE_TOL_4))
     if agreeing == [t]:
         return Feedback(CORRECT, f"{w} is right.")
-    return _wrong(f"{w}: at t = {t} the grid and Kalman posterior means differ by {gaps[t]:.1e} m, far more "
-                  f"than {AGREE_TOL_4:.0e}." + (
-                      " Did you count the steps from 1? Steps are numbered from t = 0, y_0 measuring x_0; "
-                      "or did you compare the predictions (priors) rather than the posteriors?"
-                      if agreeing and t == agreeing[0] + 1 else
-                      " Print |grid mean - Kalman mean| for each of the 10 steps."))
+    gap = f"at t = {t} the grid and Kalman posterior means differ by {gaps[t]:.1e} m, far more than " \
+          f"{AGREE_TOL_4:.0e}"
+    if agreeing and t == agreeing[0] + 1:
+        return _wrong(f"{w}: did you count the steps from 1? {gap[0].upper()}{gap[1:]}. Steps are numbered from "
+                      f"t = 0, y_0 measuring x_0; or did you compare the predictions (priors) rather than the "
+                      f"posteriors?")
+    return _wrong(f"{w}: {gap}. Print |grid mean - Kalman mean| for each of the 10 steps.")
 
 
 def exercise_4(agree, meaning, grid_means_uniform=None) -> Feedback:

@@ -94,7 +94,8 @@ def exercise_1(stabilising, std, radius) -> Feedback:
         ("radius_1", _number(radius, u["radius"], "radius_1", atol=ATOL_1, mistakes=[
             (d["radius"], damped), (u["radius"] ** 2, "this is |lambda|_max², the rate at which P_{t|t-1} approaches "
                                     "P_inf (section 12); the spectral radius is |lambda|_max itself."),
-            (1.0, "1 is the spectral radius of A (and of I - K_inf C); errors move by A (I - K_inf C) (section 7)."),
+            (1.0, "1 is the spectral radius of A (and, to 4 decimals, of I - K_inf C); errors move by A (I - K_inf "
+                  "C) (section 7)."),
             (u["real"], "this is the largest real part; the eigenvalues of A (I - K_inf C) are complex: take their "
              "modulus (np.abs), not .real."),
             (u["a_minus_kc"], "this is the spectral radius of A - K_inf C; the update comes before the prediction, "
@@ -297,7 +298,10 @@ def _exercise_4(end_of_gap_variance, slope) -> Feedback:
              "by log 20 - log 10."),
             (np.log10(v_hi / v_lo) / d_log_l, mixed.format("log10 and ln")),
             (np.log(v_hi / v_lo) / np.log10(hi / lo), mixed.format("ln and log10")),
-            (1 / expected, "you divided the other way round: the slope is d log(variance) / d log(length).")])),
+            (1 / expected, "you divided the other way round: the slope is d log(variance) / d log(length)."),
+            (v_hi / v_lo, "this is the ratio v(20) / v(10); the slope takes logarithms: log(v(20) / v(10)) / log 2."),
+            (np.log(v_hi / v_lo), "you did not divide by log 20 - log 10 = log 2: the slope is a ratio of two "
+             "logarithms.")])),
     ])
 
 

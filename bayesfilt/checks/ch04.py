@@ -117,8 +117,8 @@ _H_MISTAKES = [
     ({"bearing": "rho"}, "the bearing row is divided by rho; it is divided by rho^2 (d beta / d r_x = -r_y / rho^2)."),
     ({"rng": "one"}, "the range row is not divided by rho: d rho / d r_x = r_x / rho (a unit vector), not r_x."),
     ({"rng": "square"}, "the range row is the derivative of rho^2, not of rho: d rho / d r_x = r_x / rho."),
-    ({"then": lambda H: H[:, :2]}, "the velocities do not enter h, but H has a column for each of the 4 state "
-     "components: shape (2, 4), not (2, 2).")]
+    ({"then": lambda H: H[:, :2]}, "H must have shape (2, 4), not (2, 2): the velocities do not enter h, but H has "
+     "a column for each of the 4 state components.")]
 
 
 def exercise_1(range_bearing_jacobian) -> Feedback:
@@ -245,7 +245,7 @@ _ITERATION_MISTAKES = [({"mode": mode}, m) for mode, m in [
      "H_i (m0 - x^(i))."),
     ("term_sign", "the term H_i (m0 - x^(i)) has the wrong sign: the innovation is y - h(x^(i)) - H_i (m0 - x^(i))."),
     ("unwrapped", "the bearing part of y - h(x^(i)) is not wrapped (bf.models.range_bearing_residual)."),
-    ("fixed_H", "you re-evaluate h at x^(i) but keep the Jacobian of m0: re-linearise, H_i = H(x^(i)).")]]
+    ("fixed_H", "you keep the Jacobian of m0 while h is re-evaluated at x^(i): re-linearise, H_i = H(x^(i)).")]]
 
 
 @functools.cache
@@ -387,6 +387,8 @@ def exercise_5(wrapped_innovation) -> Feedback:
          "y_pred, the measurement minus its prediction."),
         ({}, "the bearing difference is not wrapped: across the +-pi cut the plain difference is almost 2 pi; wrap "
              "it into (-pi, pi]."),
+        ({"wrap": lambda d: np.array([d[0], np.arctan(np.tan(d[1]))])}, "arctan(tan(d)) folds the bearing difference "
+         "into (-pi/2, pi/2): beyond pi/2 it comes back shifted by pi; wrap by 2 pi into (-pi, pi]."),
         ({"wrap": lambda d: np.array([d[0], np.mod(d[1], 2 * np.pi)])}, "the bearing difference is wrapped into [0, 2 "
          "pi); a turn to the right must stay negative: (-pi, pi]."),
         ({"wrap": models.wrap_angle}, "you wrapped the range difference too; only the bearing is an angle."),

@@ -223,6 +223,8 @@ def exercise_2(answer) -> Feedback:
                            f"Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃). Count M̃ again."),
              (M * w * (1 - w), f"is the multinomial variance over all M draws; in the residual scheme the "
                                f"floor(M W^(i)) copies are fixed and only {res} draws are random: Var = φ (1 - φ/M̃)."),
+             (f * (1 - f) / R, f"divides the whole variance φ (1 - φ) by M̃; only φ is divided: Var = "
+                               f"φ (1 - φ/M̃), with {res}."),
              (f * (1 - f / M), f"divides φ by M; the residual weights φ^(i) are normalised by their sum {res}, not by "
                                f"M: Var = φ (1 - φ/M̃)."),
              (R * f * (1 - f / R), "has an extra factor M̃: M̃ draws with probability φ/M̃ each give "
@@ -247,8 +249,8 @@ def exercise_2(answer) -> Feedback:
         return _wrong(f"{what} has the right numbers in the wrong order: E[N^(2)], then the variances under "
                       f"multinomial, systematic and residual resampling.")
     k = int(np.argmin(close))
-    label = f"{what}[{k}], the " + ("expected count E[N^(2)]," if k == 0 else "variance of N^(2) under "
-                                    f"{('multinomial', 'systematic', 'residual')[k - 1]} resampling,")
+    label = f"{what}[{k}] (" + ("E[N^(2)])" if k == 0 else f"Var(N^(2)), "
+                                 f"{('multinomial', 'systematic', 'residual')[k - 1]})")
     message = next((m for v, m in _variants_2()[k] if abs(a[k] - v) <= ATOL_HAND < abs(v - ref[k])),
                    "is negative; a variance never is." if k > 0 and a[k] < -ATOL_HAND else
                    "is close but not exact (a simulation's estimate, or rounded too early?): work it out with "
