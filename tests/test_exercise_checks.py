@@ -351,10 +351,14 @@ ch05, ch06 = bf.checks.ch05, bf.checks.ch06
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _in_chapter(code: str, **chapter):
-    """Define a student's function in a namespace holding the chapter's variables."""
-    namespace = {"np": np, "bf": bf, **chapter}
-    exec(code, namespace)
+def _in_chapter(code: str, source: bool = False, **chapter):
+    """Define a student's function in a namespace holding the chapter's variables; with source,
+    its source is where inspect finds it, as IPython keeps a cell's."""
+    import linecache
+    namespace, name = {"np": np, "bf": bf, **chapter}, f"<cell {abs(hash(code))}>"
+    if source:
+        linecache.cache[name] = (len(code), None, code.splitlines(True), name)
+    exec(compile(code, name, "exec"), namespace)
     return namespace
 
 
@@ -467,19 +471,25 @@ STUBS = {
 }
 
 
+@pytest.mark.parametrize("with_source", [True, False], ids=["source", "code object"])
 @pytest.mark.parametrize("source", STUBS.values(), ids=STUBS.keys())
-def test_a_function_whose_body_is_still_the_stub_is_not_attempted(source):
+def test_a_function_whose_body_is_still_the_stub_is_not_attempted(source, with_source):
     """nbgrader's code_stub that does not raise leaves a docstring and a comment: the function
-    returns None, which is "not attempted yet", not "did you forget return?"."""
-    fb = ch02.exercise_2(_in_chapter(source)["kalman_gain"])
+    returns None, which is "not attempted yet", not "did you forget return?"; recognised from
+    its source (a notebook's cell) or, without it, from its code object."""
+    fb = ch02.exercise_2(_in_chapter(source, with_source)["kalman_gain"])
     not_attempted(fb)
     assert "kalman_gain has no body yet" in fb.message
     fb = ch02.exercise_4(0, "best linear estimate", _in_chapter(source.replace("kalman_gain(P, C, R)",
-                                                                        "grid_means_uniform(a)"))["grid_means_uniform"])
+                                                                        "grid_means_uniform(a)"), with_source)["grid_means_uniform"])
     assert fb.status == NOT_ATTEMPTED and "grid_means_uniform has no body yet" in fb.message
-    # a body that computes but forgets `return` is a mistake, not a stub
+    # a body that computes but forgets `return` is a mistake, not a stub; so is `return None`
     forgot = _in_chapter("def kalman_gain(P, C, R):\n    K = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)\n")
     wrong(ch02.exercise_2(forgot["kalman_gain"]), "forget `return`")
+    wrong(ch02.exercise_2(lambda P, C, R: None), "forget `return`")
+
+    returns_none = _in_chapter("def kalman_gain(P, C, R):\n    return None\n", source=True)["kalman_gain"]
+    wrong(ch02.exercise_2(returns_none), "forget `return`")
 
 
 def test_an_argument_changed_in_place_is_not_yet_whatever_the_output():

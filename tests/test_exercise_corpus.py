@@ -141,6 +141,9 @@ CH01 = [
     Row("1.1", (in_place_update,), INCORRECT, "changes its argument prior in place"),
     Row("1.1", (lambda p, l: bf.bayes.update(p, l).posterior,), INCORRECT, "uses bf.bayes, which the"),
     Row("1.1", (exits,), INCORRECT, "your function raised SystemExit"),
+    Row("1.1", (code("def update_by_hand(prior, likelihood):\n    while True:\n        try:\n"
+                     "            time.sleep(1)\n        except:\n            pass"),), INCORRECT,
+        "stopped after 0.3 s: update_by_hand did not return", None, 0.3),
     Row("1.1", (stub_update,), NOT_ATTEMPTED, "update_by_hand has no body yet"),
     Row("1.1", (no_return_update,), INCORRECT, "did you forget `return`"),
     Row("1.1", (lambda p, l: p * l / (p * l).sum() * (l / l),), INCORRECT, "NaN or inf where the likelihood"),

@@ -204,7 +204,7 @@ def test_exercise_2_hints_on_failures():
     def no_return(P, C, R):
         K = gain_by_inverse(P, C, R)  # noqa: F841 - the forgotten return is the point
     wrong(ch02.exercise_2(no_return), "forget `return`")
-    not_attempted(ch02.exercise_2(lambda P, C, R: None))      # a body that does nothing: a stub
+    wrong(ch02.exercise_2(lambda P, C, R: None), "forget `return`")  # a lambda is never a stub
 
 
 def test_exercise_2_not_attempted_and_garbage():

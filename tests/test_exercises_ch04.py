@@ -254,7 +254,7 @@ def test_ex1_not_attempted_and_garbage():
     not_attempted(ch04.exercise_1(None))
     not_attempted(ch04.exercise_1(not_implemented))
     wrong(ch04.exercise_1(lambda x: len(x) and None), "forget `return`")
-    not_attempted(ch04.exercise_1(lambda x: None))            # a body that does nothing: a stub
+    wrong(ch04.exercise_1(lambda x: None), "forget `return`")         # a lambda is never a stub
     wrong(ch04.exercise_1(lambda x: x[7]), "IndexError", "shape (4,)")
     wrong(ch04.exercise_1(fails_oddly), "fails on test input 1", "Odd")
     never_raises(ch04.exercise_1, BAD_FUNCTIONS + GARBAGE)

@@ -91,6 +91,7 @@ library (no path). Elsewhere a check returns its :class:`Feedback`, which the ce
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import copy
 import dis
@@ -161,7 +162,8 @@ class Check(AssertionError):
     """Raised under nbgrader by a check that is not correct; its text is the check's message."""
 
 
-def _not_attempted(what: str, unwritten: str = "") -> Feedback:
+def _not_attempted(what: str, unwritten: str | bool = "") -> Feedback:
+    unwritten = {True: "raises", False: ""}.get(unwritten, unwritten) if isinstance(unwritten, bool) else unwritten
     todo = {"": "is still None; write your answer",
             "raises": "still raises NotImplementedError; write its body",
             "stub": "has no body yet (only its docstring); write its body"}[unwritten]
@@ -259,13 +261,24 @@ def _is_function(value) -> bool:
 
 
 def _is_stub(fun) -> bool:
-    """Is ``fun``'s body only a docstring, ``pass``, ``...`` or comments (it returns None)?"""
-    code = getattr(inspect.unwrap(fun), "__code__", None)
-    if code is None:
+    """Is ``fun`` a def whose body is only a docstring, ``pass``, ``...`` or comments (nbgrader's
+    stub)? Its code object only returns None; where its source is at hand (a notebook's cell), a
+    body that says ``return None`` is not a stub."""
+    fun = inspect.unwrap(fun)
+    code = getattr(fun, "__code__", None)
+    if code is None or code.co_name == "<lambda>":
         return False
     ops = [(i.opname, i.argval) for i in dis.get_instructions(code)
            if i.opname not in ("RESUME", "NOP", "CACHE", "COPY_FREE_VARS", "MAKE_CELL")]
-    return ops in ([("LOAD_CONST", None), ("RETURN_VALUE", None)], [("RETURN_CONST", None)])
+    if ops not in ([("LOAD_CONST", None), ("RETURN_VALUE", None)], [("RETURN_CONST", None)]):
+        return False
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fun)))
+    except (OSError, TypeError, SyntaxError):
+        return True                                  # no source: the code object decides
+    body = next((n.body for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))), [])
+    return all(isinstance(n, ast.Pass) or (isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant))
+               for n in body)
 
 
 def code_names(fun, depth: int = 2) -> set[str]:
