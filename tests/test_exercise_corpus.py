@@ -13,6 +13,7 @@ references they are compared with are the checks' own, computed by the library.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from typing import NamedTuple
@@ -31,7 +32,7 @@ F32 = np.float32
 
 class Row(NamedTuple):
     exercise: str                 # "2.1": chapter 02, exercise 1
-    answers: tuple
+    answers: tuple                # or a function that makes them (an experiment: run when needed)
     status: str
     fragment: str                 # on the first line of a "Not yet"; in the message otherwise
     ns: dict | None = None        # the notebook's variables the check reads
@@ -226,6 +227,7 @@ def correlated_gain(P, C, R, G, D, sign=1.0, cross=2):
     return np.linalg.solve(Syy, (P @ C.T + sign * G @ D).T).T
 
 
+@functools.lru_cache(maxsize=None)     # a student's function that is slow to run only once
 def grid_means(a, variant="right"):
     model = bf.models.LinearGaussian(A=[[0.9]], C=[[0.5]], Q=[[0.5]], R=[[0.4]], m0=[1.0], P0=[[2.0]])
     ys = bf.models.simulate(model, 10, np.random.default_rng(3)).ys
@@ -323,11 +325,18 @@ def end_of_gap(length):
 
 SLOPE = math.log(end_of_gap(20) / end_of_gap(10)) / math.log(2)
 YS_LONG = bf.models.simulate(DP, 1000, np.random.default_rng(5)).ys
-Z_5 = []
-for kw in (dict(force_var=0.1), dict(meas_var=0.1), dict(meas_var=10.0)):
-    res = bf.kalman.kalman_filter(bf.models.damped_particle(**kw), YS_LONG)
-    Z_5.append((bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs), res.innovations))
-LAG1 = np.array([bf.gaussian.autocorrelation(z, 1)[0] for z, _ in Z_5])
+@functools.cache
+def z_5() -> list:
+    """z_t of the three mistuned models on ys_long (made when a row runs)."""
+    out = []
+    for kw in (dict(force_var=0.1), dict(meas_var=0.1), dict(meas_var=10.0)):
+        res = bf.kalman.kalman_filter(bf.models.damped_particle(**kw), YS_LONG)
+        out.append(bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs))
+    return out
+
+
+def lag1() -> np.ndarray:
+    return np.array([bf.gaussian.autocorrelation(z, 1)[0] for z in z_5()])
 
 
 def notebook_03(ys):
@@ -382,16 +391,16 @@ CH03 = [
     Row("3.4", (end_of_gap, end_of_gap(20) / end_of_gap(10)), INCORRECT, "slope_4: this is the ratio v(20) / v(10)"),
     Row("3.4", (end_of_gap, math.log(end_of_gap(20) / end_of_gap(10))), INCORRECT, "slope_4: you did not divide by"),
     Row("3.4", (*notebook_03(YS_NB),), INCORRECT, "changes the chapter's variable ys in place", {"ys": YS_NB}),
-    right(LAG1, "ratio"), right(np.round(LAG1, 3), "Ratio"),
-    Row("3.5", (np.array([bf.gaussian.autocorrelation(z, 2)[1] for z, _ in Z_5]), "ratio"), INCORRECT,
+    Row("", lambda: (lag1(), "ratio"), CORRECT, ""), Row("", lambda: (np.round(lag1(), 3), "Ratio"), CORRECT, ""),
+    Row("3.5", lambda: (np.array([bf.gaussian.autocorrelation(z, 2)[1] for z in z_5()]), "ratio"), INCORRECT,
         "lag1_5 is lag 2"),
-    Row("3.5", (np.array([bf.gaussian.autocorrelation(z, 2)[:, 0] for z, _ in Z_5]), "ratio"), INCORRECT,
+    Row("3.5", lambda: (np.array([bf.gaussian.autocorrelation(z, 2)[:, 0] for z in z_5()]), "ratio"), INCORRECT,
         "lag1_5 holds lags 1 and 2 of component 1"),
-    Row("3.5", (LAG1[[2, 1, 0]], "ratio"), INCORRECT, "has its rows in another order"),
+    Row("3.5", lambda: (lag1()[[2, 1, 0]], "ratio"), INCORRECT, "has its rows in another order"),
     Row("3.5", (np.ones((3, 2)), "ratio"), INCORRECT, "lag1_5 is lag 0"),
-    Row("3.5", (LAG1[:, :1], "ratio"), INCORRECT, "holds one component of z_t only"),
-    Row("3.5", (LAG1, "scale"), INCORRECT, "sees_5 is not the right option"),
-    Row("3.5", (LAG1, "the ratio Q/R"), INCORRECT, "sees_5 must be one of"),
+    Row("3.5", lambda: (lag1()[:, :1], "ratio"), INCORRECT, "holds one component of z_t only"),
+    Row("3.5", lambda: (lag1(), "scale"), INCORRECT, "sees_5 is not the right option"),
+    Row("3.5", lambda: (lag1(), "the ratio Q/R"), INCORRECT, "sees_5 must be one of"),
 ]
 
 # --- chapter 04 -------------------------------------------------------------------------------
@@ -433,7 +442,9 @@ def iterated(m0, P0, y, n_iter, mode="right"):
 
 Y0 = bf.models.simulate(RB, 100, np.random.default_rng(0), x0=bf.models.RANGE_BEARING_TRUE_START).ys[0]
 LIMIT = iterated(RB.m0, RB.P0, Y0, 50)[:2]
-NEES_2 = bf.checks.ch04._nees_experiment(converted, np.random.default_rng(10))
+def nees_2(how=np.mean) -> float:
+    """The given experiment of the answer cell, seed 10, summarised by how (made when a row runs)."""
+    return float(how(bf.checks.ch04._seed_10_nees()))
 
 
 def turn_jacobian(x, dtype=float, omega_col=1.0, coupling=1.0):
@@ -474,14 +485,14 @@ CH04 = [
         "uses model.H, which the statement rules out"),
     Row("4.1", (complex_step,), INCORRECT, "holds a complex number (1j): a complex-step"),
     Row("4.1", (lambda x: jacobian(x)[:, [0, 2, 1, 3]],), INCORRECT, "columns are in chapter 03's state order"),
-    right(converted, float(NEES_2.mean())), right(lambda y: converted(y).astype(F32), float(NEES_2.mean())),
-    Row("4.2", (lambda y: converted(y, rho_in=False), float(NEES_2.mean())), INCORRECT, "rho is missing from J"),
-    Row("4.2", (lambda y: np.diag(np.diag(converted(y))), float(NEES_2.mean())), INCORRECT,
+    Row("", lambda: (converted, nees_2()), CORRECT, ""), Row("", lambda: (lambda y: converted(y).astype(F32), nees_2()), CORRECT, ""),
+    Row("4.2", lambda: (lambda y: converted(y, rho_in=False), nees_2()), INCORRECT, "rho is missing from J"),
+    Row("4.2", lambda: (lambda y: np.diag(np.diag(converted(y))), nees_2()), INCORRECT,
         "you kept only the diagonal"),
-    Row("4.2", (lambda y: np.linalg.inv(converted(y)), float(NEES_2.mean())), INCORRECT, "this is the inverse"),
-    Row("4.2", (converted, float(NEES_2.sum())), INCORRECT, "did you sum the NEES"),
-    Row("4.2", (converted, float(NEES_2[:, -1].mean())), INCORRECT, "the average at the last step"),
-    Row("4.2", (converted, float(np.median(NEES_2))), INCORRECT, "nees_2 is the median"),
+    Row("4.2", lambda: (lambda y: np.linalg.inv(converted(y)), nees_2()), INCORRECT, "this is the inverse"),
+    Row("4.2", lambda: (converted, nees_2(np.sum)), INCORRECT, "did you sum the NEES"),
+    Row("4.2", lambda: (converted, nees_2(lambda e: e[:, -1].mean())), INCORRECT, "the average at the last step"),
+    Row("4.2", lambda: (converted, nees_2(np.median)), INCORRECT, "nees_2 is the median"),
     right(iterated, LIMIT),
     Row("4.3", (lambda *a: iterated(*a, mode="plus_one"), LIMIT), INCORRECT, "you return x^(n_iter + 1)"),
     Row("4.3", (lambda *a: iterated(*a, mode="no_term"), LIMIT), INCORRECT, "the term - H_i (m0 - x^(i)) is"),
@@ -542,7 +553,8 @@ def increment(x, y, var=1.1, mean_factor=0.9):
     return float(stats.norm.logpdf(y, mean_factor * x, math.sqrt(var)))
 
 
-def mean_ess(R, swap=False):
+@functools.lru_cache(maxsize=None)
+def mean_ess(R):
     model = bf.models.LinearGaussian(A=[[0.9]], C=[[1.0]], Q=[[1.0]], R=[[R]], m0=[0.0], P0=[[1.0]])
     proposals = {"bootstrap": None, "optimal": bf.particle.optimal_proposal(model)}
     records, rngs = np.random.default_rng(14), {k: np.random.default_rng(15) for k in proposals}
@@ -551,11 +563,12 @@ def mean_ess(R, swap=False):
         ys = bf.models.simulate(model, 40, records).ys
         for k, p in proposals.items():
             ess[k][r] = bf.particle.particle_filter(model, ys, 500, rngs[k], proposal=p, ess_threshold=0).ess
-    out = ess["bootstrap"][:, 5].mean(), ess["optimal"][:, 39].mean()
-    return out[::-1] if swap else out
+    return ess["bootstrap"][:, 5].mean(), ess["optimal"][:, 39].mean()
 
 
-ANSWER_5_4 = tuple((0.01, 0.1, 1.0)[int(np.argmin(col))] for col in np.array([mean_ess(R) for R in (0.01, 0.1, 1.0)]).T)
+def answer_5_4() -> tuple:
+    """(R_boot, R_opt) from the student's experiment (made when a row runs)."""
+    return tuple((0.01, 0.1, 1.0)[int(np.argmin(col))] for col in np.array([mean_ess(R) for R in (0.01, 0.1, 1.0)]).T)
 
 CH05 = [
     right(log_normalize), right(lambda lw: log_normalize(lw, F32)), right(lambda lw: log_normalize(lw, F32, False)),
@@ -587,13 +600,14 @@ CH05 = [
     Row("5.3", (lambda x, y: -0.5 * (y - 0.9 * x) ** 2 / 1.1,), INCORRECT, "misses the constant"),
     Row("5.3", (lambda x, y: -increment(x, y),), INCORRECT, "has the wrong sign"),
     Row("5.3", (lambda x, y: increment(x, y, mean_factor=0.8),), INCORRECT, "the output for test input 1 is too"),
-    right(ANSWER_5_4, ns={"mean_ess": mean_ess}), right(list(ANSWER_5_4)),
-    Row("5.4", (ANSWER_5_4[::-1],), INCORRECT, "has the two values swapped"),
+    Row("", lambda: (answer_5_4(),), CORRECT, "", {"mean_ess": mean_ess}),
+    Row("", lambda: (list(answer_5_4()),), CORRECT, ""),
+    Row("5.4", lambda: (answer_5_4()[::-1],), INCORRECT, "has the two values swapped"),
     Row("5.4", ((1.1, 30.0),), INCORRECT, "give the value of R, not the ESS"),
-    Row("5.4", (ANSWER_5_4,), INCORRECT, "mean_ess is not written yet",
+    Row("5.4", lambda: (answer_5_4(),), INCORRECT, "mean_ess is not written yet",
         {"mean_ess": code('def mean_ess(R):\n    """(ESS, ESS)."""\n    # YOUR CODE HERE\n')}),
-    Row("5.4", (ANSWER_5_4,), INCORRECT, "mean_ess(0.01) returns the pair in the wrong order",
-        {"mean_ess": lambda R: mean_ess(R, swap=True)}),
+    Row("5.4", lambda: (answer_5_4(),), INCORRECT, "mean_ess(0.01) returns the pair in the wrong order",
+        {"mean_ess": lambda R: mean_ess(R)[::-1]}),
     right(["b", "c"]), right("b and c"), right(("C", "B")),
     Row("5.5", (["a", "b", "c"],), INCORRECT, "includes the damped particle (a)"),
     Row("5.5", (["c"],), INCORRECT, "leaves out dp_pushed (b)"),
@@ -618,6 +632,12 @@ BATCH = bf.models.simulate_many(LG_6, 20, 50, np.random.default_rng(15))
 
 
 def threshold_experiment(thresholds, worst=np.argmax):
+    counts, rmse = _threshold_runs(tuple(thresholds))
+    return counts, thresholds[int(worst(rmse))]
+
+
+@functools.lru_cache(maxsize=None)
+def _threshold_runs(thresholds):
     counts, rmse = [], []
     for theta in thresholds:
         rng = np.random.default_rng(16)
@@ -626,10 +646,11 @@ def threshold_experiment(thresholds, worst=np.argmax):
         counts.append(np.mean([r.resampled.sum() for r, _ in runs]))
         rmse.append(np.sqrt(np.mean([np.mean((r.means[:, 0] - k.means[:, 0]) ** 2 / k.covs[:, 0, 0])
                                      for r, k in runs])))
-    return np.array(counts), thresholds[int(worst(rmse))]
+    return np.array(counts), rmse
 
 
-ANSWER_6_3 = threshold_experiment((0.1, 0.5, 0.9))
+def answer_6_3() -> tuple:
+    return threshold_experiment((0.1, 0.5, 0.9))
 
 CH06 = [
     right(systematic), right(lambda w, u: systematic(w, u).astype(np.int32)),
@@ -654,12 +675,13 @@ CH06 = [
     Row("6.2", ([*ANSWER_6_2[:3], PHI * (1 - PHI) / 2],), INCORRECT, "divides the whole variance φ (1 - φ) by M̃"),
     Row("6.2", ([M2 * W2[0], *ANSWER_6_2[1:]],), INCORRECT, "is the value for particle 1"),
     Row("6.2", ([*ANSWER_6_2[:2], math.sqrt(PHI * (1 - PHI)), ANSWER_6_2[3]],), INCORRECT, "is a standard deviation"),
-    right(ANSWER_6_3, ns={"threshold_experiment": threshold_experiment, "thresholds": (0.1, 0.5, 0.9)}),
-    Row("6.3", ((ANSWER_6_3[0] * 20, ANSWER_6_3[1]),), INCORRECT, "is a total over the 20 records"),
-    Row("6.3", ((ANSWER_6_3[0][::-1], ANSWER_6_3[1]),), INCORRECT, "lists the thresholds in reverse order"),
-    Row("6.3", (threshold_experiment((0.1, 0.5, 0.9), np.argmin),), INCORRECT, "is not the threshold with the"),
-    Row("6.3", ((ANSWER_6_3[1], ANSWER_6_3[0]),), INCORRECT, "is in the wrong order"),
-    Row("6.3", (ANSWER_6_3,), INCORRECT, "threshold_experiment is not written yet",
+    Row("", lambda: (answer_6_3(),), CORRECT, "", {"threshold_experiment": threshold_experiment,
+                                                  "thresholds": (0.1, 0.5, 0.9)}),
+    Row("6.3", lambda: ((answer_6_3()[0] * 20, answer_6_3()[1]),), INCORRECT, "is a total over the 20 records"),
+    Row("6.3", lambda: ((answer_6_3()[0][::-1], answer_6_3()[1]),), INCORRECT, "lists the thresholds in reverse order"),
+    Row("6.3", lambda: (threshold_experiment((0.1, 0.5, 0.9), np.argmin),), INCORRECT, "is not the threshold with the"),
+    Row("6.3", lambda: ((answer_6_3()[1], answer_6_3()[0]),), INCORRECT, "is in the wrong order"),
+    Row("6.3", lambda: (answer_6_3(),), INCORRECT, "threshold_experiment is not written yet",
         {"threshold_experiment": code('def threshold_experiment(thresholds):\n    """(counts, theta)."""\n')}),
     right((2.0, "conservative"), 500), right((2, "Conservative"), 500),
     Row("6.4", ((0.1, "conservative"), 500), INCORRECT, "the jitter is too small"),
@@ -692,7 +714,8 @@ def judge(row: Row, monkeypatch=None):
     check = getattr(ch[int(chapter)], f"exercise_{number}")
     if row.limit is not None and monkeypatch is not None:
         monkeypatch.setattr(bf.checks, "TIME_LIMIT", row.limit)
-    return check(*row.answers, namespace=row.ns) if row.ns is not None else check(*row.answers)
+    answers = row.answers() if callable(row.answers) else row.answers
+    return check(*answers, namespace=row.ns) if row.ns is not None else check(*answers)
 
 
 @pytest.mark.parametrize("row", CORPUS, ids=[_id(r) for r in CORPUS])

@@ -266,11 +266,7 @@ def _is_stub(fun) -> bool:
     body that says ``return None`` is not a stub."""
     fun = inspect.unwrap(fun)
     code = getattr(fun, "__code__", None)
-    if code is None or code.co_name == "<lambda>":
-        return False
-    ops = [(i.opname, i.argval) for i in dis.get_instructions(code)
-           if i.opname not in ("RESUME", "NOP", "CACHE", "COPY_FREE_VARS", "MAKE_CELL")]
-    if ops not in ([("LOAD_CONST", None), ("RETURN_VALUE", None)], [("RETURN_CONST", None)]):
+    if code is None or code.co_name == "<lambda>" or not _returns_none_only(code):
         return False
     try:
         tree = ast.parse(textwrap.dedent(inspect.getsource(fun)))
@@ -279,6 +275,13 @@ def _is_stub(fun) -> bool:
     body = next((n.body for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))), [])
     return all(isinstance(n, ast.Pass) or (isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant))
                for n in body)
+
+
+@functools.lru_cache(maxsize=1024)
+def _returns_none_only(code) -> bool:
+    ops = [(i.opname, i.argval) for i in dis.get_instructions(code)
+           if i.opname not in ("RESUME", "NOP", "CACHE", "COPY_FREE_VARS", "MAKE_CELL")]
+    return ops in ([("LOAD_CONST", None), ("RETURN_VALUE", None)], [("RETURN_CONST", None)])
 
 
 def code_names(fun, depth: int = 2) -> set[str]:
@@ -343,9 +346,10 @@ def _budget(run: _Run | None, name: str, args, params=()):
     if run is None or run.timing or TIME_LIMIT <= 0:
         yield                                 # a nested call, or no budget: time it once
         return
-    message = _deadline_message(name, left >= TIME_LIMIT, args, params)
+    whole = left >= TIME_LIMIT
+    message = functools.cache(lambda: _deadline_message(name, whole, args, params))
     if left <= 0:
-        raise _Stop(message)
+        raise _Stop(message())
     alarm_ok = hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
     start, inside, previous_trace = time.perf_counter(), [True], sys.gettrace()
     guard_code = _guard_code
@@ -354,7 +358,7 @@ def _budget(run: _Run | None, name: str, args, params=()):
         if not inside[0] or frame.f_code is alarm.__code__:
             return None
         if event in ("line", "call"):         # not at "exception": the try would still catch it,
-            raise _Stop(message)              # and a trace function that raises is switched off
+            raise _Stop(message())            # and a trace function that raises is switched off
         return tracer
 
     def alarm(signum, frame):
@@ -365,7 +369,7 @@ def _budget(run: _Run | None, name: str, args, params=()):
             f.f_trace, f.f_trace_lines = tracer, True
             f = f.f_back
         sys.settrace(tracer)
-        raise _Stop(message)
+        raise _Stop(message())
 
     run.timing = True
     if alarm_ok:
@@ -893,8 +897,8 @@ def compare_function(fun, reference: Callable, cases: Sequence[tuple], what: str
                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
     except (TypeError, ValueError):
         names = []
-    fb = _each_case(fun, what, cases, [_describe_args(args, names) for args in cases], judge)
-    return _forbidden(fb, fun, what, forbidden)
+    labels = [functools.partial(_describe_args, args, names) for args in cases]   # when needed
+    return _forbidden(_each_case(fun, what, cases, labels, judge), fun, what, forbidden)
 
 
 def _forbidden(fb: Feedback, fun, what: str, forbidden) -> Feedback:
@@ -913,7 +917,8 @@ def _forbidden(fb: Feedback, fun, what: str, forbidden) -> Feedback:
 def _each_case(fun, what: str, cases: Sequence[tuple], labels: Sequence[str],
                judge: Callable) -> Feedback:
     """``fun`` on each case (deep-copied); ``judge(out, where, args)`` says what its output is,
-    ``where`` being "test input k"; the label of a failing input ends the message."""
+    ``where`` being "test input k"; the label of a failing input (a string, or a function that
+    makes it) ends the message."""
     if fun is None or fun is Ellipsis:
         return _not_attempted(what)
     if not callable(fun):
@@ -926,6 +931,7 @@ def _each_case(fun, what: str, cases: Sequence[tuple], labels: Sequence[str],
         if not feedback.correct:
             message = feedback.message if feedback.message.startswith(what) else \
                 f"{what}: {feedback.message}"
+            label = label() if callable(label) else label
             return _wrong(f"{message} (Test input {k + 1}: {label}.)" if label else message)
     return Feedback(CORRECT, f"{what} agrees with the library on all {len(cases)} test inputs.")
 

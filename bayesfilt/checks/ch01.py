@@ -96,15 +96,16 @@ def exercise_1(update_by_hand) -> Feedback:
         " Hint: the prior is integer counts here, and in-place arithmetic (*=, /=) cannot store fractions in an "
         "integer array: compute a new array instead of changing prior."
         if isinstance(exc, TypeError) and args[0].dtype.kind in "iu" and "cast" in str(exc) else "")),
-        lambda prior, likelihood: bayes.update(prior, likelihood).posterior, cases, "update_by_hand", _posterior_compare,
-        _UPDATE_MISTAKES,
+        lambda prior, likelihood: bayes.update(prior, likelihood).posterior, cases, "update_by_hand",
+        _posterior_compare, _UPDATE_MISTAKES,
         forbidden=[({"bayes"}, "bf.bayes, which the statement rules out: write Bayes' rule in numpy, prior "
                                "x likelihood divided by its sum.")])
 
 
 def exercise_2(answer) -> Feedback:
     """answer_2: bel(open) after each of three steps (push, sense "closed") from start_2."""
-    transitions, sensor = given("door_transitions", {"push": PUSH}), given("door_sensor", np.array([SENSE_OPEN, SENSE_CLOSED]))
+    transitions = given("door_transitions", {"push": PUSH})
+    sensor = given("door_sensor", np.array([SENSE_OPEN, SENSE_CLOSED]))
     push, closed, opened = (np.asarray(a, dtype=float) for a in (transitions["push"], sensor[1], sensor[0]))
     start = np.asarray(given("start_2", START_2), dtype=float)
 

@@ -16,7 +16,7 @@ import numbers
 
 import numpy as np
 
-from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _combine, _frozen, _hinted, _is, _named, _normal,
+from . import (CORRECT, INCORRECT, Feedback, _combine, _frozen, _hinted, _is, _named, _normal,
                _not_attempted, _wrong, compare_array, compare_function, given, register as _register)
 from .. import bayes, gaussian, kalman, models
 
@@ -223,11 +223,9 @@ def exercise_4(agree, meaning, grid_means_uniform=None) -> Feedback:
     a = float(given("a_4", HALF_WIDTH_4))
     parts = [("agree_4", _agree_4(agree, a)), ("meaning_4", _meaning_4(meaning))]
     if grid_means_uniform is not None:
-        def means_compare(out, expected, what="the output") -> Feedback:
-            return compare_array(out, expected, what)
-        means = compare_function(grid_means_uniform, lambda a: _uniform_grid_means(a), [(a,), (1.0,)], what="grid_means_uniform",
-                                 compare=means_compare, mistakes=[(lambda a, v=v: _uniform_grid_means(a, v), m)
-                                                                  for v, m in _MEANS_MISTAKES])
+        means = compare_function(grid_means_uniform, lambda a: _uniform_grid_means(a), [(a,), (1.0,)],
+                                 what="grid_means_uniform", mistakes=[
+                                     (lambda a, v=v: _uniform_grid_means(a, v), m) for v, m in _MEANS_MISTAKES])
         if means.status == INCORRECT and "entries differ" in means.message:
             means = _wrong(means.message.replace("(Test input", "Return the 10 posterior means, posteriors @ grid, "
                                                  "of bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods) "

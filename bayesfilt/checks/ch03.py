@@ -15,7 +15,7 @@ import functools
 
 import numpy as np
 
-from . import (CORRECT, INCORRECT, Feedback, _Stop, _as_numbers, _combine, _each_case, _forbidden, _frozen, _hinted, _named,
+from . import (INCORRECT, Feedback, _Stop, _as_numbers, _combine, _each_case, _forbidden, _frozen, _hinted, _named,
                _wrong, compare_choice, compare_number, given, register as _register)
 from .. import gaussian, kalman, models
 
