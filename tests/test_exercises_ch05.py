@@ -358,7 +358,7 @@ def test_ex4_swapped(right_4):
 
 
 def test_ex4_a_noisier_sensor_is_not_worse_for_the_bootstrap(right_4):
-    _assert_wrong(ch05.exercise_4((1.0, 1.0)), "noisier sensor does not")
+    _assert_wrong(ch05.exercise_4((1.0, 1.0)), "is not the R of the bootstrap", "blind draws")
 
 
 def test_ex4_the_optimal_proposal_does_not_rank_like_the_bootstrap(right_4):

@@ -163,7 +163,8 @@ class Check(AssertionError):
 
 
 def _not_attempted(what: str, unwritten: str | bool = "") -> Feedback:
-    unwritten = {True: "raises", False: ""}.get(unwritten, unwritten) if isinstance(unwritten, bool) else unwritten
+    if isinstance(unwritten, bool):           # the former signature: True, NotImplementedError
+        unwritten = "raises" if unwritten else ""
     todo = {"": "is still None; write your answer",
             "raises": "still raises NotImplementedError; write its body",
             "stub": "has no body yet (only its docstring); write its body"}[unwritten]
@@ -272,9 +273,10 @@ def _is_stub(fun) -> bool:
         tree = ast.parse(textwrap.dedent(inspect.getsource(fun)))
     except (OSError, TypeError, SyntaxError):
         return True                                  # no source: the code object decides
-    body = next((n.body for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))), [])
-    return all(isinstance(n, ast.Pass) or (isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant))
-               for n in body)
+    body = next((n.body for n in ast.walk(tree)
+                 if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))), [])
+    return all(isinstance(n, ast.Pass) or (isinstance(n, ast.Expr)
+                                           and isinstance(n.value, ast.Constant)) for n in body)
 
 
 @functools.lru_cache(maxsize=1024)
@@ -296,7 +298,7 @@ def code_names(fun, depth: int = 2) -> set[str]:
         stack.extend(k for k in c.co_consts if inspect.iscode(k))
     for name in list(names) if depth > 0 else ():
         other = space.get(name)
-        if _is_function(other) and other is not fun and getattr(other, "__globals__", None) is space:
+        if _is_function(other) and other is not fun and getattr(other, "__globals__", {}) is space:
             names |= code_names(other, depth - 1)
     return names
 
@@ -320,7 +322,7 @@ def referenced(fun, depth: int = 2) -> list:
 
 def _complex_step(fun) -> bool:
     """Does ``fun``'s code hold a complex constant (``1j``): a complex-step derivative?"""
-    code, stack = getattr(inspect.unwrap(fun), "__code__", None), []
+    code = getattr(inspect.unwrap(fun), "__code__", None)
     stack = [code] if code is not None else []
     while stack:
         c = stack.pop()
@@ -350,7 +352,8 @@ def _budget(run: _Run | None, name: str, args, params=()):
     message = functools.cache(lambda: _deadline_message(name, whole, args, params))
     if left <= 0:
         raise _Stop(message())
-    alarm_ok = hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+    alarm_ok = (hasattr(signal, "setitimer")
+                and threading.current_thread() is threading.main_thread())
     start, inside, previous_trace = time.perf_counter(), [True], sys.gettrace()
     guard_code = _guard_code
 
@@ -507,7 +510,8 @@ def _raised(exc: BaseException, name: str, args, params=()) -> str:
     hint = ("exit() and sys.exit() end a program, not a function: return the result instead."
             if isinstance(exc, SystemExit) else "a function ends with return (a failure with an "
             "ordinary exception, such as ValueError).")
-    return f"your function raised {kind} ({name}, test input: {_describe_args(args, params)}): {hint}"
+    return (f"your function raised {kind} ({name}, test input: "
+            f"{_describe_args(args, params)}): {hint}")
 
 
 def exercise(check: Callable) -> Callable:
@@ -773,7 +777,8 @@ def compare_array(answer, expected, what: str = "your answer", rtol: float = 1e-
         return _wrong(f"{what} does not sum to 1 (its entries sum to {a.sum():.4g}), but it is a "
                       f"probability vector.")
     if square and np.allclose(e, e.T) and not np.allclose(a, a.T):
-        return _wrong(f"{what} is not symmetric, but it should be: a covariance (or a precision) is "
+        return _wrong(f"{what} is not symmetric, but it should be: a covariance (or a precision) "
+                      f"is "
                       f"(max |A - A^T| = {np.max(np.abs(a - a.T)):.3g}).")
     wrong = ~np.isclose(a, e, rtol=rtol, atol=atol)
     where = tuple(int(i) for i in np.argwhere(wrong)[0])
@@ -907,7 +912,7 @@ def _forbidden(fb: Feedback, fun, what: str, forbidden) -> Feedback:
         return fb
     space = getattr(inspect.unwrap(fun), "__globals__", {})
     names = {k for k in code_names(fun)           # the student's own functions do not count
-             if not (_is_function(space.get(k)) and getattr(space[k], "__globals__", None) is space)}
+             if not (_is_function(space.get(k)) and getattr(space[k], "__globals__", {}) is space)}
     for needed, message in forbidden:
         if needed(fun) if callable(needed) else set(needed) <= names:
             return _wrong(f"{what} uses {message}")

@@ -323,9 +323,8 @@ def _answer_4(answer, r_values) -> Feedback:
     return _first(w, [
         (chosen == (opt, boot) and boot != opt, " has the two values swapped: first the bootstrap (t = 5), "
                                                 "then the optimal proposal (t = 39)."),
-        (chosen[0] != boot and chosen[0] == max(r_values), "[0]: a noisier sensor does not make the bootstrap "
-         "degenerate faster: the smaller R, the fewer blind draws land where N(y_t; x_t, R) is large (t = 5)."),
-        (chosen[0] != boot, f"[0] is not the R of the bootstrap's smallest mean ESS at t = 5 (index 5). {average}."),
+        (chosen[0] != boot, f"[0] is not the R of the bootstrap's smallest mean ESS at t = 5 (index 5). For each R, "
+         f"how many of the blind draws land where N(y_t; x_t, R) is large? {average}."),
         (chosen[1] == boot, f"[1] ranks the R like the bootstrap ({w}[0] is right). At t = 39 (index 39 or -1, not "
          f"5) the increment p(y_t | x_(t-1)^(i)) does not depend on the new draw, only on the particle's past."),
         (True, f"[1] is not the R of the optimal proposal's smallest mean ESS at t = 39 (index 39 or -1; {w}[0] "
