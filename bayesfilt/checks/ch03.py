@@ -285,9 +285,7 @@ def _exercise_4(end_of_gap_variance, slope) -> Feedback:
     return _combine([
         ("end_of_gap_variance", _each_case(_hinted(fun, lambda exc, args: (
             " Hint: the run has T = 100 steps; the gap's last step is t = 39 + length (t = 99 for "
-            "length = 60)." if isinstance(exc, IndexError) else " Hint: delete whole measurements, "
-            "both components NaN: ys_cut[40:40 + length] = np.nan." if "partly NaN" in str(exc)
-            else "")), "end_of_gap_variance", [(n,) for n in GAP_LENGTHS],
+            "length = 60)." if isinstance(exc, IndexError) else "")), "end_of_gap_variance", [(n,) for n in GAP_LENGTHS],
             [f"length = {n}" for n in GAP_LENGTHS], functools.partial(_gap_judge, fun))),
         ("slope_4", _number(slope, expected, "slope_4", atol=ATOL_SLOPE, mistakes=[
             (expected / 2, "this is the standard deviation's slope; the variance's is twice it (log of a square)."),
