@@ -40,10 +40,13 @@ entries compared at once, each one is allowed
 
 so that, by the union bound, a correct result fails with probability below
 :math:`\alpha` whatever the seed (:func:`z_limit`; :math:`z_1 = 3.9`,
-:math:`z_{100} = 5.0`). The standard error is that of a normal approximation
-(central limit theorem), which is accurate for the sample sizes the chapters
-use (thousands of draws; an entry whose exact SE is zero, such as the
-frequency of an impossible cell, must match exactly). A wrong derivation is
+:math:`z_{100} = 5.0`). For :func:`mc_mean` and :func:`mc_frequencies` the
+standard error is that of a normal approximation (central limit theorem),
+accurate for the sample sizes the chapters use (thousands of draws, no
+category expected less than a few times; an entry whose exact SE is zero,
+such as the frequency of an impossible cell, must match exactly).
+:func:`mc_moments` needs no approximation: for Gaussian draws its limits are
+exact quantiles or proven bounds (its notes). A wrong derivation is
 typically off by many SE and fails.
 
 Where the normal approximation is not good enough (skewed variables, such as
@@ -324,6 +327,28 @@ def mc_mean(label: str, values, expected) -> None:
     _report(label, _in_se(label, mean - expected, se), k, z, "a sample mean")
 
 
+def _covariance_limits(cov: np.ndarray, M: int, t: float):
+    r"""Limits (low, high) on ``S - cov`` for the sample covariance S of M Gaussian draws.
+
+    ``(M - 1) (S_ij - P_ij)`` is a sum Q of ``M - 1`` independent terms
+    :math:`\lambda_+ (g^2 - 1) + \lambda_- (h^2 - 1)`, g and h standard normal,
+    :math:`\lambda_\pm = (P_{ij} \pm \sqrt{P_{ii} P_{jj}})/2` (the eigenvalues of
+    A P for :math:`A = (e_i e_j^T + e_j e_i^T)/2`). Each term's log moment
+    generating function is at most :math:`s^2 \lambda^2 / (1 - 2 s \lambda_+)`, so
+    (Laurent & Massart 2000, Lemma 1, whose proof covers coefficients of both
+    signs) :math:`P(Q \ge 2\|a\|\sqrt t + 2\lambda_+ t) \le e^{-t}` and
+    :math:`P(Q \le -2\|a\|\sqrt t - 2|\lambda_-| t) \le e^{-t}`, with
+    :math:`\|a\|^2 = (M - 1)(\lambda_+^2 + \lambda_-^2)`.
+    """
+    n = M - 1
+    diag = np.diag(cov)
+    root = np.sqrt(np.outer(diag, diag))
+    plus, minus = (cov + root) / 2, np.abs(cov - root) / 2   # lambda_+ >= 0, |lambda_-|
+    norm = np.sqrt(n * (plus**2 + minus**2))                  # ||a||
+    # Q >= 2 ||a|| sqrt(t) + 2 lambda_+ t, Q <= -2 ||a|| sqrt(t) - 2 |lambda_-| t: each e^{-t}
+    return -(2 * norm * np.sqrt(t) + 2 * minus * t) / n, (2 * norm * np.sqrt(t) + 2 * plus * t) / n
+
+
 def mc_moments(label: str, draws, mean, cov) -> None:
     r"""Check the sample mean and covariance of Gaussian draws against theory.
 
@@ -332,34 +357,75 @@ def mc_moments(label: str, draws, mean, cov) -> None:
     label : str
         What is compared.
     draws : array_like, shape (M, d)
-        ``M`` independent draws.
+        ``M`` independent draws of :math:`N(m, P)`.
     mean : array_like, shape (d,)
-        The exact mean.
+        The exact mean m.
     cov : array_like, shape (d, d)
         The exact covariance :math:`P`.
 
     Notes
     -----
-    The SE of the sample mean's entry ``i`` is :math:`\sqrt{P_{ii}/M}`; that of
-    the sample covariance's entry ``(i, j)`` is
-    :math:`\sqrt{(P_{ii} P_{jj} + P_{ij}^2)/M}` (exact for Gaussian draws).
-    The limit is :func:`z_limit` of ``d + d (d + 1) / 2`` entries.
+    The ``k = d + d (d + 1) / 2`` entries (means and the upper triangle of
+    the sample covariance, ``np.cov``'s, with ``M - 1``) share the false-alarm
+    probability :data:`ALPHA` by the union bound, ``ALPHA / (2k)`` on each
+    side of each entry, and every limit is exact or a proven bound for
+    Gaussian draws, with no normal approximation:
+
+    * a sample mean is exactly :math:`N(m_i, P_{ii}/M)`: its limit is
+      :func:`z_limit` of ``k`` entries standard errors;
+    * a sample variance is a scaled chi-square, :math:`P_{ii}\chi^2_{M-1}/(M-1)`,
+      whose upper tail is heavier than a normal's: its limits are the exact
+      chi-square quantiles;
+    * an off-diagonal sample covariance has chi-square-like tails too: its
+      limits are Laurent & Massart's (2000) bounds for sums of
+      :math:`\lambda(g^2 - 1)` (:func:`_covariance_limits`), a little wider
+      (about 5 SE where a normal would allow 4.4 to 4.6).
+
+    The recorded detail gives the largest deviation in standard errors,
+    :math:`\sqrt{P_{ii}/M}` for a mean and :math:`\sqrt{(P_{ii}P_{jj} + P_{ij}^2)/(M-1)}`
+    for a covariance entry (exact for Gaussian draws), and the limits.
     """
     draws = np.asarray(draws, dtype=float)
     if draws.ndim != 2:
         raise ValueError(f"draws: expected shape (M, d), got {draws.shape}")
     M, d = draws.shape
+    if M < 3:
+        raise ValueError(f"draws: expected at least 3 draws, got {M}")
     mean = np.asarray(mean, dtype=float)
     cov = np.asarray(cov, dtype=float)
     if mean.shape != (d,) or cov.shape != (d, d):
-        raise ValueError(f"mean, cov: expected shapes ({d},) and ({d}, {d}) for draws of shape {draws.shape}, "
-                         f"got {mean.shape} and {cov.shape}")
+        raise ValueError(f"mean, cov: expected shapes ({d},) and ({d}, {d}) for draws of shape "
+                         f"{draws.shape}, got {mean.shape} and {cov.shape}")
     diag = np.diag(cov)
     iu = np.triu_indices(d)
-    gaps = np.concatenate([draws.mean(axis=0) - mean, (np.atleast_2d(np.cov(draws.T)) - cov)[iu]])
-    ses = np.concatenate([np.sqrt(diag / M), np.sqrt((np.outer(diag, diag) + cov**2) / M)[iu]])
     k = d + len(iu[0])
-    _report(label, _in_se(label, gaps, ses), k, z_limit(k), "a sample mean or covariance entry")
+    z = z_limit(k)
+    gap_m = draws.mean(axis=0) - mean
+    gap_c = (np.atleast_2d(np.cov(draws.T)) - cov)[iu]
+    se_m = np.sqrt(diag / M)
+    se_c = np.sqrt((np.outer(diag, diag) + cov**2) / (M - 1))[iu]
+    low, high = _covariance_limits(cov, M, np.log(2 * k / ALPHA))
+    # a variance entry: (M - 1) S_ii / P_ii is chi-square with M - 1 degrees of freedom, so its
+    # limits are exact quantiles (the bound above is for the off-diagonal entries)
+    from scipy.stats import chi2
+    q_low, q_high = chi2.ppf(ALPHA / (2 * k), M - 1), chi2.isf(ALPHA / (2 * k), M - 1)
+    i = np.arange(d)
+    low[i, i], high[i, i] = diag * (q_low / (M - 1) - 1), diag * (q_high / (M - 1) - 1)
+    low, high = low[iu], high[iu]
+    if np.isnan(gap_m).any() or np.isnan(gap_c).any():
+        raise AssertionError(f"{label}: an estimate is NaN")
+    worst = _in_se(label, np.concatenate([gap_m, gap_c]), np.concatenate([se_m, se_c]))
+    exact = se_c == 0                 # a zero-variance entry: its sample covariance is exact
+    bad_m = np.abs(gap_m) > z * se_m
+    bad_c = ~exact & ((gap_c < low) | (gap_c > high))
+    if bad_m.any() or bad_c.any():
+        what = "a sample mean" if bad_m.any() else "a sample covariance entry"
+        raise AssertionError(f"{label}: {what} is beyond its limit ({worst:.1f} standard errors "
+                             f"from the exact value); a correct result goes beyond it with "
+                             f"probability < {ALPHA:.0e}")
+    c_lim = np.where(exact, np.nan, np.maximum(high, -low) / np.where(exact, 1.0, se_c))
+    _passed(label, f"within {worst:.1f} SE of the exact value (limits {z:.1f} SE for a mean, "
+                   f"up to {np.nanmax(c_lim, initial=z):.1f} SE for a covariance; {k} entries)")
 
 
 def bernstein_limits(values, probs, n: int, k: int = 1, alpha: float = ALPHA):
