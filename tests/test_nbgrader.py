@@ -447,6 +447,8 @@ def test_the_recipe_commands_are_the_ones_this_test_runs():
     assert "quickstart" in text and "IncludeHeaderFooter" in text
     assert "SIGALRM" in text and "Windows" in text
     assert "formgrader" in text.lower() and "Manual Grading" in text
+    # the feedback pages load MathJax from a CDN (nbconvert's default): the guide says so
+    assert "MathJax from a CDN" in _section()
 
 
 def test_the_course_config_sets_what_the_guide_says():

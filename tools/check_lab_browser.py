@@ -21,8 +21,9 @@ checks two things that nbval cannot see, because nbval has no front end:
   the kernel after the last cell has run: a slider's first render calls its
   function again), then reads every output in the live page, the outputs of
   widgets included, and reports each error (a traceback, an ``...Error:`` or
-  ``...Exception:`` line) with its cell. Warnings written to stderr are
-  listed too, as warnings.
+  ``...Exception:`` line) with its cell, and each cell that shows fewer
+  figures than the stored notebook (a figure lost). Warnings written to
+  stderr are listed too, as warnings.
 * **Display equations against the text column**, at a window of
   ``--width`` (default 1,024) px with the file browser open, JupyterLab's
   default layout. Every typeset display equation (MathJax's
@@ -35,6 +36,16 @@ checks two things that nbval cannot see, because nbval has no front end:
 It prints one line per chapter, then the details, and exits 1 if a run shows
 an error or an equation is clipped. Run as root (a container), JupyterLab
 needs ``--allow-root``: the script passes it when it runs as root.
+
+JupyterLab runs with the environment's settings, except its news pop-up and,
+with ``--comms-over-subshells``, the setting that decides in which kernel
+thread a widget's callback runs. JupyterLab's default (``perCommTarget``,
+with ipykernel 7) runs a slider's callback in a second thread while Run All
+goes on in the first; matplotlib is not thread-safe, so a slider's figure can
+then fail (a mathtext ``ParseException``) or another cell's figure go
+missing. The course's setting is ``disabled`` (``make lab`` installs it;
+INSTRUCTORS.md, "JupyterLab in class"). The last line of the report says
+which setting the runs had.
 """
 
 from __future__ import annotations
@@ -54,6 +65,8 @@ import time
 import urllib.request
 from pathlib import Path
 
+import nbformat
+
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = ROOT / "notebooks"
 WIDTH, HEIGHT = 1024, 768
@@ -63,6 +76,11 @@ SETTINGS = {
     "@jupyterlab/apputils-extension/notification.jupyterlab-settings":
         {"checkForUpdates": False, "fetchNews": "false"},
 }
+
+# The JupyterLab setting that decides in which kernel thread widget messages run (INSTRUCTORS.md,
+# "JupyterLab in class"): JupyterLab's default, "perCommTarget", runs a slider's callback in a
+# second thread, concurrently with the cells of Run All.
+COMMS_SETTING = "@jupyterlab/apputils-extension/kernels-settings.jupyterlab-settings"
 
 # Waits for the notebook and its kernel, then runs every cell; resolves when the run is done.
 RUN_ALL = r"""
@@ -96,10 +114,12 @@ async () => {
     } else idleSince = null;
     await sleep(100);
   }
+  const comms = app.serviceManager.kernels.commsOverSubshells;   // as JupyterLab applies it
   const cells = panel.content.widgets;
   const unrun = cells.filter(c => c.model.type === 'code' && c.model.sharedModel.getSource().trim()
                              && !c.model.executionCount).length;
-  return {seconds: (performance.now() - t0 - 3000) / 1000, unrun: unrun, cells: cells.length};
+  return {seconds: (performance.now() - t0 - 3000) / 1000, unrun: unrun, cells: cells.length,
+          comms: comms};
 }
 """
 
@@ -109,10 +129,13 @@ READ_OUTPUTS = r"""
   const cells = [...document.querySelectorAll('.jp-NotebookPanel .jp-Notebook .jp-Cell')];
   const found = [];
   for (const el of document.querySelectorAll('.jp-NotebookPanel .jp-OutputArea-output')) {
+    if (el.querySelector('.jp-OutputArea-output')) continue;   // a widget's outputs: read inside
     const cell = el.closest('.jp-Cell');
+    // textContent, not innerText: JupyterLab skips the layout of cells off screen
+    // (content-visibility), and innerText is empty for them
     found.push({cell: cells.indexOf(cell), mime: el.getAttribute('data-mime-type') || '',
                 inWidget: !!el.closest('.jupyter-widgets, .jupyter-widget-Output, .widget-output'),
-                text: el.innerText || ''});
+                image: !!el.querySelector('img'), text: el.textContent || ''});
   }
   return found;
 }
@@ -186,10 +209,13 @@ def _free_port() -> int:
 class Lab:
     """A private JupyterLab server on 127.0.0.1 serving ``root``; stopped by :meth:`stop`."""
 
-    def __init__(self, root: Path, home: Path):
+    def __init__(self, root: Path, home: Path, comms: str | None = None):
         self.root, self.port, self.token = root, _free_port(), secrets.token_hex(16)
         settings = home / "settings"
-        for name, values in SETTINGS.items():
+        chosen = dict(SETTINGS)
+        if comms:
+            chosen[COMMS_SETTING] = {"commsOverSubshells": comms}
+        for name, values in chosen.items():
             path = settings / name
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(values))
@@ -246,20 +272,44 @@ class Lab:
 ERROR_LINE = re.compile(r"Traceback \(most recent call last\)|^\w*(Error|Exception)\b.*:", re.M)
 
 
+STDERR = ("application/vnd.jupyter.stderr", "application/vnd.jupyter.error")
+
+
 def classify(outputs: list[dict]) -> tuple[list[dict], list[dict]]:
-    """(errors, warnings) among the page's outputs: stderr-rendered outputs and error lines."""
+    """(errors, warnings) among the page's outputs.
+
+    JupyterLab renders a traceback, and anything written to stderr, with the
+    stderr mime type: such an output with a traceback or an ``...Error:`` line
+    is an error, any other is a warning. Printed text (stdout) is never an
+    error, even when it quotes one (a chapter that shows an error message).
+    """
     errors, warnings = [], []
     for out in outputs:
-        text = out["text"]
-        if ERROR_LINE.search(text):
-            errors.append(out)
-        elif out["mime"] == "application/vnd.jupyter.stderr":
-            warnings.append(out)
+        if out["mime"] not in STDERR:
+            continue
+        (errors if ERROR_LINE.search(out["text"]) else warnings).append(out)
     return errors, warnings
+
+
+def missing_figures(nb, outputs: list[dict]) -> list[str]:
+    """Cells that show fewer figures outside widgets than the stored notebook (a figure lost)."""
+    shown = {}
+    for out in outputs:
+        if out["image"] and not out["inWidget"]:
+            shown[out["cell"]] = shown.get(out["cell"], 0) + 1
+    problems = []
+    for index, cell in enumerate(nb.cells):
+        if cell.cell_type != "code":
+            continue
+        stored = sum(1 for o in cell.get("outputs", []) if "image/png" in o.get("data", {}))
+        if shown.get(index, 0) < stored:
+            problems.append(f"cell {index + 1}: {shown.get(index, 0)} of its {stored} figures shown")
+    return problems
 
 
 def display_tex(source: str) -> list[str]:
     """The TeX of each ``$$ ... $$`` display of a markdown source, in order."""
+    source = re.sub(r"^[ \t]*>[ \t]?", "", source, flags=re.M)     # a display in a blockquote
     return [m.group(1).strip() for m in re.finditer(r"\$\$(.+?)\$\$", source, flags=re.S)]
 
 
@@ -269,13 +319,14 @@ def _snippet(tex: str, size: int = 70) -> str:
 
 
 def check(notebooks: list[Path], runs: int, equations: bool, chromium: str, width: int,
-          keep: bool = False) -> int:
+          keep: bool = False, comms: str | None = None) -> int:
     from playwright.sync_api import sync_playwright
 
     home = Path(tempfile.mkdtemp(prefix="lab-check-"))
     root = home / "root"
     root.mkdir()
-    lab = Lab(root, home)
+    lab = Lab(root, home, comms)
+    effective = set()
     failures = 0
     summary, details = [], []
     try:
@@ -283,8 +334,6 @@ def check(notebooks: list[Path], runs: int, equations: bool, chromium: str, widt
             browser = p.chromium.launch(executable_path=chromium, headless=True,
                                         args=["--no-sandbox"])
             for path in notebooks:
-                import nbformat
-
                 nb = nbformat.read(path, as_version=4)
                 line = [path.name + ":"]
                 if equations:
@@ -320,13 +369,17 @@ def check(notebooks: list[Path], runs: int, equations: bool, chromium: str, widt
                     outputs = page.evaluate(READ_OUTPUTS)
                     context.close()
                     lab.shutdown_kernels()
+                    effective.add(str(info.get("comms")))
                     errors, warnings = classify(outputs)
                     if info["unrun"]:
                         errors.append({"cell": -1, "inWidget": False,
                                        "text": f"{info['unrun']} code cells did not run"})
+                    errors += [{"cell": -1, "inWidget": False, "text": f"figure missing: {p}"}
+                               for p in missing_figures(nb, outputs)]
                     dirty += bool(errors)
                     for out in errors:
-                        where = f"cell {out['cell'] + 1}" + (" (widget output)" if out["inWidget"] else "")
+                        where = ("" if out["cell"] < 0 else f"cell {out['cell'] + 1}"
+                                 + (" (widget output)" if out["inWidget"] else ""))
                         details.append(f"  {path.name} run {run + 1} {where}: ERROR "
                                        + _snippet(out["text"].strip().splitlines()[-1] if out["text"].strip() else "", 200))
                     for out in warnings:
@@ -347,6 +400,9 @@ def check(notebooks: list[Path], runs: int, equations: bool, chromium: str, widt
     if details:
         print("\nDetails:")
         print("\n".join(details))
+    if effective:
+        print(f"\nJupyterLab's 'Kernel Comms over subshells' setting in these runs: "
+              f"{', '.join(sorted(effective))}")
     return 1 if failures else 0
 
 
@@ -360,13 +416,17 @@ def main(argv=None) -> int:
     parser.add_argument("--width", type=int, default=WIDTH, help="window width in px (default 1024)")
     parser.add_argument("--chromium", help="the Chromium executable (default: found on the PATH)")
     parser.add_argument("--keep", action="store_true", help="keep the temporary folder (logs)")
+    parser.add_argument("--comms-over-subshells", choices=["disabled", "perComm", "perCommTarget"],
+                        help="set JupyterLab's 'Kernel Comms over subshells' for the check "
+                             "(default: as installed; the course sets 'disabled', JupyterLab's "
+                             "own default is 'perCommTarget')")
     args = parser.parse_args(argv)
     notebooks = args.notebooks or sorted(NOTEBOOKS.glob("[0-9][0-9]_*.ipynb"))
     missing = [str(p) for p in notebooks if not p.is_file()]
     if missing:
         parser.error(f"no such notebook: {', '.join(missing)}")
     return check(notebooks, args.runs, not args.no_equations, find_chromium(args.chromium),
-                 args.width, args.keep)
+                 args.width, args.keep, args.comms_over_subshells)
 
 
 if __name__ == "__main__":
