@@ -160,9 +160,9 @@ def _section() -> str:
 
 
 def _roster() -> str:
-    """The guide's example roster (its ```csv block)."""
-    blocks = re.findall(r"```csv\n(.*?)```", _section(), flags=re.S)
-    assert len(blocks) == 1, "the recipe shows one example roster (a ```csv block)"
+    """The guide's example roster (the code block that starts with the roster's header)."""
+    blocks = re.findall(r"```text\n(id,first_name,last_name,email\n.*?)```", _section(), flags=re.S)
+    assert len(blocks) == 1, "the recipe shows one example roster"
     return blocks[0]
 
 
@@ -236,12 +236,10 @@ def course(tmp_path_factory):
     logs = {}
 
     def run(block: str, name: str, extra: dict | None = None, may_fail: tuple = ()):
-        import time; t0 = time.perf_counter()
         proc = subprocess.run([sys.executable, "-c", DRIVER, block, json.dumps(extra or {}),
                                json.dumps(list(may_fail))],
                               cwd=work, env=env, capture_output=True, text=True, timeout=600)
         logs[name] = proc.stdout + proc.stderr
-        print("TIMING", name, time.perf_counter() - t0)
         assert proc.returncode == 0, f"{block}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
         return proc
 
@@ -417,8 +415,9 @@ def test_a_timed_out_answer_says_so(course):
 def test_no_warning_for_a_correct_answer(course):
     """nbgrader warned once per correct check ("Cell output is Correct: ... cannot be converted to
     a float"): a check cell under nbgrader must leave no execute_result."""
-    log = course["logs"]["grade"]
-    assert "cannot be converted to a float" not in log, re.findall(r".*converted to a float.*", log)[:3]
+    log = " ".join(course["logs"]["grade"].split())      # nbgrader's message spans lines
+    warned = re.findall(r"Cell output is .{0,120}?cannot be converted to a float", log)
+    assert not warned, f"{len(warned)} warnings, e.g. {warned[:2]}"
     graded = nbformat.read(course["root"] / "autograded" / "alice" / ASSIGNMENT / CHAPTER.name,
                            as_version=4)
     results = [_grade_id(c) for c in graded.cells if c.cell_type == "code"
