@@ -394,8 +394,8 @@ def test_the_diagnoses_reach_the_graded_notebooks_and_the_feedback(course):
     checks = {s: _check_outputs(nb) for s, nb in graded.items()}
     assert all(text.startswith("Correct") for text in checks["alice"].values()), checks["alice"]
     assert all("Not attempted yet" in text for text in checks["bob"].values()), checks["bob"]
-    for n, phrase in CAROL_SAYS.items():
-        assert phrase in checks["carol"][n], (n, checks["carol"][n])
+    for n, phrase in CAROL_SAYS.items():        # the checks wrap their messages at 76 columns
+        assert phrase in " ".join(checks["carol"][n].split()), (n, checks["carol"][n])
     feedback = (root / "feedback" / "carol" / ASSIGNMENT / f"{CHAPTER.stem}.html").read_text()
     assert "S is computed without R" in feedback
     assert "an endless loop?" in feedback and "ZeroDivisionError" in feedback

@@ -320,15 +320,17 @@ def test_student_edition_contains_no_solution_code(edition):
         elsewhere, solution = set(), set()
         for cell in source.cells:
             blocks = _solution_blocks(cell.source) if cell.cell_type == "code" or _is_why_cell(cell) else []
-            inside = set()
             for block in blocks:
-                exempt = _exempt_lines(block)
-                inside.update(line.strip() for line in block)
+                exempt = _exempt_lines(block) if cell.cell_type == "code" else set()  # prose
                 solution.update(line.strip() for k, line in enumerate(block)
                                 if k not in exempt and re.search(r"\w", line)
                                 and not line.strip().startswith("#"))
-            elsewhere.update(line.strip() for line in cell.source.splitlines()
-                             if line.strip() not in inside or not blocks)
+            marked = False            # lines outside the markers, by position (a given line
+            for line in cell.source.splitlines():   # may repeat one of the solution's)
+                if line.strip() in ("### BEGIN SOLUTION", "### END SOLUTION"):
+                    marked = line.strip() == "### BEGIN SOLUTION"
+                elif not marked or not blocks:
+                    elsewhere.add(line.strip())
         # A solution line that also stands outside every solution block (a given matrix, a
         # `return x`) may stay; every other one must be gone from the student notebook.
         secret = solution - elsewhere

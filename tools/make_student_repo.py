@@ -62,6 +62,9 @@ LIBRARY = ROOT / "bayesfilt"
 #: Shortest line (whitespace removed) that counts as a solution line in the scan: shorter ones
 #: (``return x``, ``pass``) say nothing about an answer and occur everywhere.
 MIN_CHARS = 12
+#: A solution line that only seeds a generator, ``rng = np.random.default_rng(16)``, gives
+#: nothing away (every statement names the seeds its check depends on).
+SEEDING = re.compile(r"\w+=np\.random\.default_rng\(\d+\)")
 MARKERS = ("BEGIN SOLUTION", "END SOLUTION")
 LAB_SETTING = {"@jupyterlab/apputils-extension:kernels-settings": {"commsOverSubshells": "disabled"}}
 
@@ -115,8 +118,9 @@ def secrets(notebooks: Path = NOTEBOOKS, library: Path = LIBRARY) -> dict[str, s
     """The solution lines a student must not find: squeezed line -> where it comes from.
 
     Every line between the markers of an answer cell or a written answer of
-    every chapter, at least :data:`MIN_CHARS` long once squeezed, unless it
-    also stands (squeezed) in what students see anyway: the notebooks outside
+    every chapter, at least :data:`MIN_CHARS` long once squeezed and not a
+    bare seeding of a generator (:data:`SEEDING`: the statements give every
+    seed a check depends on), unless it also stands (squeezed) in what students see anyway: the notebooks outside
     the solution blocks (text, given code, outputs of the cells that are not
     answers or checks) or a file of the library.
     """
@@ -130,7 +134,7 @@ def secrets(notebooks: Path = NOTEBOOKS, library: Path = LIBRARY) -> dict[str, s
                 public.append(_outputs_text(cell))
             for line in inside:
                 key = squeeze(line)
-                if len(key) >= MIN_CHARS:
+                if len(key) >= MIN_CHARS and not SEEDING.fullmatch(key):
                     found.setdefault(key, f"{path.name} cell {index + 1}: {line.strip()}")
     public += [p.read_text(encoding="utf-8") for p in sorted(library.rglob("*.py"))]
     seen = squeeze("\n".join(public))
