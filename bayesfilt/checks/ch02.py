@@ -138,7 +138,7 @@ def exercise_1(means, variances, P_inf, K_inf) -> Feedback:
     n = len(ys)
 
     def step_mistakes(k: int, w: str):
-        first = [(lambda a: a.size == 1, f"{w} must hold {n} numbers, one per update (t = 1, ..., {n}); "
+        first = [(lambda a: a.size == 1, f"{w} must hold {n} numbers, one after each of the {n} updates; "
                                          f"got one."),
                  (ref_means if k else ref_vars, f"{w} holds the {'means' if k else 'variances'}; swap "
                                                 f"means_1 and vars_1.")]
@@ -153,7 +153,7 @@ def exercise_1(means, variances, P_inf, K_inf) -> Feedback:
     P_ref, K_ref = float(ss.pred_cov[0, 0]), float(ss.gain[0, 0])
     root = np.sqrt(Qn ** 2 + 4 * Qn * Rn)
     filtered = P_ref * Rn / (P_ref + Rn)
-    swapped = (Rn + root) / 2
+    swapped = (Rn + np.sqrt(Rn ** 2 + 4 * Qn * Rn)) / 2              # Q and R swapped
     notes = "these are section 2's numbers (Q = 2, R = 3 m^2); use Q_new_1 and R_new_1."
     P_2 = (2.0 + np.sqrt(4.0 + 24.0)) / 2                      # section 2's P_inf, Q = 2 and R = 3 m^2
     steps = [_named(means, ref_means, "means_1", step_mistakes(0, "means_1"), rtol=0.0, atol=ATOL_HAND),
