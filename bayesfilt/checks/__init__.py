@@ -951,6 +951,8 @@ def _one_case(fun, what, where, args, judge) -> Feedback:
     except Exception as exc:  # noqa: BLE001 - any failure is feedback, not a crash
         return _wrong(f"{what} fails on {where}: {type(exc).__name__}: {_text(exc)}")
     if out is None:
+        if _is_stub(fun):             # called directly, not through an exercise's guard
+            return _not_attempted(what, unwritten="stub")
         return _wrong(f"{what} returned None on {where}; did you forget `return`?")
     return judge(out, where, args)
 
