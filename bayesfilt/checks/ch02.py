@@ -30,7 +30,7 @@ Q_NEW_1, R_NEW_1, ATOL_HAND = 1.0, 6.0, 1e-3
 # exercise 3: section 3's cloud at t = 8 as printed there (m, m/step; m^2, m^2/step, (m/step)^2), the position
 # learnt exactly (m), and the position sensor's R = 1 m^2 of section 1 (the noisy slope is a named mistake)
 M_3, PI_3, POSITION_3, R_SECTION_1 = _frozen([4.76, 0.43]), _frozen([[27.35, 3.96], [3.96, 0.87]]), 12.0, 1.0
-# exercises 2 and 5: a predicted covariance (m^2, m^2/step, (m/step)^2) close to section 8's P_{11|10}, the
+# exercises 2 and 5: a predicted covariance (m^2, m^2/step, (m/step)^2) close to section 7's P_{11|10}, the
 # position sensor and its noise variance (m^2); the noise gain of the damped particle (the kick acts on the
 # velocity) and cov(w_t, v_{t+1}) of exercise 5
 P_EX, C_EX, R_EX = _frozen([[1.2, 0.45], [0.45, 0.34]]), _frozen([[1.0, 0.0]]), _frozen([[1.0]])
