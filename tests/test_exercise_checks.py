@@ -648,16 +648,29 @@ def test_02_a_teacher_changes_the_measured_position():
     _edited(ch02.exercise_3, at(10.0), at(12.0), {"position_3": 10.0})
 
 
-def test_03_a_teacher_changes_the_kick_variance():
-    dp = bf.models.damped_particle()
-    ys = bf.models.simulate(dp, 100, np.random.default_rng(2024)).ys[:, :1]
+def test_03_a_teacher_changes_the_push_of_the_faster_sensor():
+    """03 ex 2 reads sigma_a_2 (and the runs xs_2, ys_2 the answer cell simulates with it)."""
+    dt, C = 0.5, bf.models.damped_particle().C
+    A = np.kron(np.eye(2), [[1.0, dt], [0.0, 0.98 ** dt]])
+    g = np.array([[dt ** 2 / 2], [dt]])
 
-    def answers(kick_variance):          # the unmeasured xi_2 depends on Q, not on R
-        model = bf.models.LinearGaussian(A=dp.A, C=[[1.0, 0.0, 0.0, 0.0]], Q=kick_variance * np.eye(2),
-                                         R=[[1.0]], m0=dp.m0, P0=dp.P0, G=dp.G, state_names=dp.state_names)
-        return model, (2, "no", float(bf.kalman.kalman_filter(model, ys).covs[-1, 2, 2]))
-    (model, right), (_, old) = answers(0.02), answers(0.01)
-    _edited(ch03.exercise_2, right, old, {"model_2": model})
+    def answers(sigma_a):
+        rng, xs = np.random.default_rng(22), np.zeros((30, 40, 4))
+        xs[:, 0] = rng.normal(size=(30, 4))
+        for t in range(1, 40):
+            xs[:, t] = xs[:, t - 1] @ A.T + np.kron(rng.normal(0.0, sigma_a, size=(30, 2)), g.ravel())
+        ys = xs[..., [0, 2]] + rng.normal(size=(30, 40, 2))
+
+        def nees(GQGt):
+            out = bf.kalman.batch_kalman_filter(
+                bf.models.LinearGaussian(A, C, GQGt, np.eye(2), np.zeros(4), np.eye(4)), ys)
+            return float(bf.gaussian.squared_mahalanobis(xs - out.means, out.covs).mean())
+        right = sigma_a ** 2 * np.kron(np.eye(2), g @ g.T)
+        old = sigma_a ** 2 * np.kron(np.eye(2), np.array([[0.25, 0.5], [0.5, 1.0]]))
+        return {"sigma_a_2": sigma_a, "xs_2": xs, "ys_2": ys}, (right, nees(right), nees(old))
+    (ns, right), (_, old) = answers(0.2), answers(0.1)
+    correct(ch03.exercise_2(*right, namespace=ns))
+    assert ch03.exercise_2(*old, namespace=ns).status == INCORRECT
 
 
 def test_04_a_teacher_changes_the_measurement_of_the_iterated_update():

@@ -298,9 +298,33 @@ SS1, EIG1 = steady(bf.models.damped_particle(damping=1.0))
 SS98, EIG98 = steady(DP)
 STD_1, RADIUS_1 = math.sqrt(SS1.cov[X1, X1]), EIG1.max()
 YS = bf.models.simulate(DP, 100, np.random.default_rng(2024)).ys
-MODEL_2 = bf.models.LinearGaussian(A=DP.A, C=[[1.0, 0, 0, 0]], Q=DP.Q, R=[[1.0]], m0=DP.m0, P0=DP.P0, G=DP.G,
-                                   state_names=DP.state_names)
-COVS_2 = bf.kalman.kalman_filter(MODEL_2, YS[:, :1]).covs
+DT_2, SIGMA_A_2 = 0.5, 0.1
+A_2 = np.kron(np.eye(2), [[1.0, DT_2], [0.0, 0.98 ** DT_2]])
+
+
+@functools.cache
+def runs_2():
+    """The answer cell's runs of 03 ex 2 (200 runs of 200 half steps, seed 22), made when a row runs."""
+    rng, xs = np.random.default_rng(22), np.zeros((200, 200, 4))
+    xs[:, 0] = rng.normal(size=(200, 4))
+    for t in range(1, 200):
+        xs[:, t] = xs[:, t - 1] @ A_2.T + np.kron(rng.normal(0.0, SIGMA_A_2, size=(200, 2)), [DT_2 ** 2 / 2, DT_2])
+    return xs, xs[..., [0, 2]] + rng.normal(size=(200, 200, 2))
+
+
+def nees_2_of(GQGt, predicted=False):
+    xs, ys = runs_2()
+    out = bf.kalman.batch_kalman_filter(bf.models.LinearGaussian(A_2, DP.C, GQGt, np.eye(2), np.zeros(4), np.eye(4)), ys)
+    means, covs = (out.pred_means, out.pred_covs) if predicted else (out.means, out.covs)
+    return float(bf.gaussian.squared_mahalanobis(xs - means, covs).mean())
+
+
+def g_2(dt):
+    return np.array([[dt ** 2 / 2], [dt]])
+
+
+GQGT_2 = SIGMA_A_2 ** 2 * np.kron(np.eye(2), g_2(DT_2) @ g_2(DT_2).T)      # as a student writes it
+OLD_2 = SIGMA_A_2 ** 2 * np.kron(np.eye(2), g_2(1.0) @ g_2(1.0).T)        # section 6's G_pc G_pc^T
 
 
 def nees(d, P):
@@ -355,14 +379,24 @@ CH03 = [
     Row("3.1", ("yes", STD_1, 0.5), INCORRECT, "radius_1 is too small"),
     Row("3.1", ("yes", STD_1, np.abs(np.linalg.eigvals(np.eye(4) - SS1.gain @ DP.C)).max()), INCORRECT,
         "radius_1: 1 is the spectral radius of A (and, to 4"),
-    right(2, "no", float(COVS_2[-1, X2, X2])),
-    Row("3.2", (4, "no", float(COVS_2[-1, X2, X2])), INCORRECT, "rank_2: full rank would mean"),
-    Row("3.2", (1, "no", float(COVS_2[-1, X2, X2])), INCORRECT, "rank_2: this is the rank of C alone"),
-    Row("3.2", (2, "yes", float(COVS_2[-1, X2, X2])), INCORRECT, "detectable_2 is not the right option"),
-    Row("3.2", (2, "no", math.sqrt(COVS_2[-1, X2, X2])), INCORRECT, "var_2: this is the standard deviation"),
-    Row("3.2", (2, "no", float(COVS_2[-2, X2, X2])), INCORRECT, "var_2: this is the variance at t = 98"),
-    Row("3.2", (2, "no", float(COVS_2[-1, X1, X1])), INCORRECT, "var_2: this is the variance of a position"),
-    Row("3.2", (2.5, "no", float(COVS_2[-1, X2, X2])), INCORRECT, "a rank counts independent rows"),
+    Row("", lambda: (GQGT_2, nees_2_of(GQGT_2), nees_2_of(OLD_2)), CORRECT, ""),
+    Row("", lambda: (GQGT_2.astype(F32), F32(nees_2_of(GQGT_2)), round(nees_2_of(OLD_2), 8)), CORRECT, ""),
+    Row("3.2", lambda: (OLD_2, nees_2_of(OLD_2), nees_2_of(OLD_2)), INCORRECT, "section 6's design for Δt = 1"),
+    Row("3.2", lambda: (np.kron(np.eye(2), 0.01 * np.array([[DT_2 ** 3 / 3, DT_2 ** 2 / 2], [DT_2 ** 2 / 2, DT_2]])),
+                        nees_2_of(GQGT_2), nees_2_of(OLD_2)), INCORRECT, "continuous white-noise model"),
+    Row("3.2", lambda: (np.diag([0, 0.0025, 0, 0.0025]), nees_2_of(np.diag([0, 0.0025, 0, 0.0025])),
+                        nees_2_of(OLD_2)), INCORRECT, "this puts the push on the velocity only"),
+    Row("3.2", lambda: (np.diag(np.diag(GQGT_2)), nees_2_of(GQGT_2), nees_2_of(OLD_2)), INCORRECT,
+        "the position-velocity entries"),
+    Row("3.2", lambda: (GQGT_2 / SIGMA_A_2, nees_2_of(GQGT_2), nees_2_of(OLD_2)), INCORRECT, "you multiplied by sigma_a"),
+    Row("3.2", lambda: (GQGT_2[:2, :2], nees_2_of(GQGT_2), nees_2_of(OLD_2)), INCORRECT, "is the per-axis block"),
+    Row("3.2", lambda: (GQGT_2[np.ix_([0, 2, 1, 3], [0, 2, 1, 3])], nees_2_of(GQGT_2), nees_2_of(OLD_2)), INCORRECT,
+        "GQGt_2 is in the order"),
+    Row("3.2", lambda: (GQGT_2, nees_2_of(OLD_2), nees_2_of(GQGT_2)), INCORRECT, "this is the value of nees_old_2"),
+    Row("3.2", lambda: (GQGT_2, nees_2_of(GQGT_2, predicted=True), nees_2_of(OLD_2)), INCORRECT,
+        "this uses the predictions"),
+    Row("3.2", lambda: (GQGT_2, 200 * 200 * nees_2_of(GQGT_2), nees_2_of(OLD_2)), INCORRECT,
+        "this is the sum over all runs"),
     right(nees), right(lambda d, P: np.einsum("ti,ti->t", d, np.linalg.solve(P, d[..., None])[..., 0])),
     Row("3.3", (lambda d, P: np.einsum("ti,tij,tj->t", d, P, d),), INCORRECT, "you multiply by P_t"),
     Row("3.3", (lambda d, P: np.sum(d ** 2 / np.diagonal(P, axis1=1, axis2=2), axis=1),), INCORRECT,

@@ -1,13 +1,14 @@
 """Tests of bayesfilt.checks.ch03, the checks of the exercises of chapter 03.
 
 For every exercise: the reference answer, computed here independently of the
-check (the Riccati recursion iterated in plain numpy, a Kalman filter written
-out with P - KCP, the covariance recursion without measurements, a loop with
-np.linalg.inv, the autocorrelation formula), is accepted; plausible wrong
+check (the Riccati recursion iterated in plain numpy, the half-step kinematics
+written out component by component with a Kalman filter over all runs at once,
+a loop with np.linalg.inv, a Kalman filter written out with P - KCP, the
+autocorrelation formula), is accepted; plausible wrong
 answers are rejected, each with its own diagnosis; None and
 NotImplementedError mean "not attempted yet"; garbage never raises; no
-message shows the reference. The statements in the notebook use the numbers
-of the module.
+message shows the reference; a teacher's edited given values are honoured.
+The statements in the notebook use the numbers of the module.
 """
 
 from __future__ import annotations
@@ -100,10 +101,12 @@ def test_the_notebook_states_the_numbers_of_the_module():
     cells, text = _answer_cells(), _statements()
     assert sorted(cells) == [1, 2, 3, 4, 5]
     assert f"damped_particle(damping={ch03.DAMPING_1})" in cells[1]
-    assert "C=[[1.0, 0.0, 0.0, 0.0]]" in cells[2] and "R=[[1.0]]" in cells[2]
-    np.testing.assert_array_equal(ch03.C_2, [[1.0, 0.0, 0.0, 0.0]])
-    np.testing.assert_array_equal(ch03.R_2, [[1.0]])
-    assert "ys[:, :1]" in cells[2] and "(P_{99\\mid 99})" in text[2] and ch03.STEP_2 == 99
+    assert (f"dt_2, sigma_a_2, M_2, T_2 = {ch03.DT_2}, {ch03.SIGMA_A_2}, {ch03.M_2}, {ch03.T_2}"
+            in cells[2]) and f"np.random.default_rng({ch03.SEED_2})" in cells[2]
+    assert "damping**dt_2" in cells[2] and ch03.DAMPING == 0.98
+    assert "$\\Delta t = 0.5$" in text[2] and "$\\sigma_a = 0.1$" in text[2] and "seed 22" in text[2]
+    assert "short_4, long_4 = 10, 20" in cells[4] and ch03.SLOPE_LENGTHS == (10, 20)
+    assert 'ys_long = bf.models.simulate(model, N_long, np.random.default_rng(5)).ys' in cells[5]
     assert "0.95" in text[3] and ch03.CORRELATED_3[0, 1] == 0.95
     assert "ys_cut[40:40 + length] = np.nan" in cells[4] and ch03.GAP_START == 40
     assert "10, 20, 1 (the single step $t = 40$), 2, 5, 33 and 60" in text[4]
@@ -123,7 +126,7 @@ def test_the_notebook_states_the_numbers_of_the_module():
 
 def test_solution_blocks_hold_only_defs_and_answer_assignments():
     """What tools/make_student_edition.py can stub: top-level defs and assignments only."""
-    answers = {1: {"stabilising_1", "std_1", "radius_1"}, 2: {"rank_2", "detectable_2", "var_2"},
+    answers = {1: {"stabilising_1", "std_1", "radius_1"}, 2: {"GQGt_2", "nees_2", "nees_old_2"},
                3: {"normalised_squared"}, 4: {"end_of_gap_variance", "slope_4"},
                5: {"lag1_5", "sees_5"}}
     for n, source in _answer_cells().items():
@@ -133,7 +136,7 @@ def test_solution_blocks_hold_only_defs_and_answer_assignments():
 def test_check_cells_are_a_single_call():
     calls = [source for source, kind in _cells() if kind == "code" and "bf.checks.ch03" in source]
     assert calls == ["bf.checks.ch03.exercise_1(stabilising_1, std_1, radius_1)",
-                     "bf.checks.ch03.exercise_2(rank_2, detectable_2, var_2)",
+                     "bf.checks.ch03.exercise_2(GQGt_2, nees_2, nees_old_2)",
                      "bf.checks.ch03.exercise_3(normalised_squared)",
                      "bf.checks.ch03.exercise_4(end_of_gap_variance, slope_4)",
                      "bf.checks.ch03.exercise_5(lag1_5, sees_5)"]
@@ -187,7 +190,7 @@ def test_exercise_1_diagnoses_the_standard_deviation(std, phrases):
 @pytest.mark.parametrize("radius, phrases", [
     (np.abs(np.linalg.eigvals(A @ (np.eye(4) - K98 @ C))).max(), ["section 7's value"]),
     (RADIUS_1 ** 2, ["|lambda|_max²", "itself"]),
-    (1.0, ["spectral radius of A", "A (I - K_inf C)"]),
+    (1.0, ["spectral radius of A", "A (I - K_inf C) (optional section 12)"]),
     (np.abs(EIG_1.real).max(), ["real part", "np.abs"]),
     (np.abs(np.linalg.eigvals(transition(1.0) - K1 @ C)).max(), ["A - K_inf C"]),
 ])
@@ -199,7 +202,7 @@ def test_exercise_1_diagnoses_the_spectral_radius(radius, phrases):
 
 def test_exercise_1_the_choice():
     wrong(ch03.exercise_1("no", STD_1, RADIUS_1), "stabilising_1 is not the right option",
-          "section 7's two conditions")
+          "optional section 12's two conditions")
     wrong(ch03.exercise_1(True, STD_1, RADIUS_1), "must be one of ['yes', 'no']")
 
 
@@ -213,72 +216,144 @@ def test_exercise_1_not_attempted_and_garbage():
 
 
 # ---------------------------------------------------------------------------
-# Exercise 2: measure one axis only
+# Exercise 2: design G Q G^T for a half step, and test it with the NEES
 # ---------------------------------------------------------------------------
 
-C_ONE = np.array([[1.0, 0.0, 0.0, 0.0]])
+def runs_2(dt=0.5, sigma_a=0.1, seed=22, M=200, T=200):
+    """The statement's runs, the kinematics written out component by component: in a half step
+    the push a moves the position by v dt + a dt^2/2 and the velocity by a dt (after damping)."""
+    rng = np.random.default_rng(seed)
+    xs = np.zeros((M, T, 4))
+    xs[:, 0] = rng.normal(size=(M, 4))
+    keep = 0.98 ** dt
+    for t in range(1, T):
+        a = rng.normal(0.0, sigma_a, size=(M, 2))
+        for axis, (pos, vel) in enumerate(((0, 1), (2, 3))):
+            xs[:, t, pos] = xs[:, t - 1, pos] + dt * xs[:, t - 1, vel] + a[:, axis] * dt ** 2 / 2
+            xs[:, t, vel] = keep * xs[:, t - 1, vel] + a[:, axis] * dt
+    return xs, xs[..., [0, 2]] + rng.normal(size=(M, T, 2))
 
 
-def sigma(steps):
-    """Section 11: the covariance without measurements, Sigma_{t+1} = A Sigma_t A^T + G Q G^T."""
-    S = np.eye(4)
-    for _ in range(steps):
-        S = A @ S @ A.T + GQG
-    return S
+def half_step(dt):
+    return np.array([[1, dt, 0, 0], [0, 0.98 ** dt, 0, 0], [0, 0, 1, dt], [0, 0, 0, 0.98 ** dt]], float)
 
 
-VAR_2 = sigma(99)[2, 2]          # nothing measures x^2: the filter's variance is Sigma_99's
-ONE_AXIS = plain_filter(A, C_ONE, GQG, np.eye(1), np.zeros(4), np.eye(4), np.zeros((100, 1)))[1]
+def design(dt, sigma_a):
+    """sigma_a^2 g g^T on each axis, g = [dt^2/2, dt]: entries dt^4/4, dt^3/2, dt^2."""
+    block = sigma_a ** 2 * np.array([[dt ** 4 / 4, dt ** 3 / 2], [dt ** 3 / 2, dt ** 2]])
+    out = np.zeros((4, 4))
+    out[:2, :2] = out[2:, 2:] = block
+    return out
 
 
-def test_exercise_2_reference_by_hand():
-    # the rows C A^k are [1, k-ish, 0, 0]: two independent ones, zeros in the x^2 columns
-    obs = np.vstack([C_ONE @ np.linalg.matrix_power(A, k) for k in range(4)])
-    assert np.all(obs[:, 2:] == 0) and np.linalg.matrix_rank(obs) == 2
-    np.testing.assert_allclose(ONE_AXIS[-1, 2, 2], VAR_2, rtol=1e-10)
-    correct(ch03.exercise_2(2, "no", VAR_2))
-    correct(ch03.exercise_2(np.int64(2), "NO", round(VAR_2)))
-    correct(ch03.exercise_2(2.0, "no", np.float32(VAR_2)))
+def mean_nees(GQGt, xs, ys, dt, predicted=False):
+    """The filter (A for dt, C, GQGt, R = I, m0 = 0, P0 = I) on all runs at once, written out."""
+    A, (M, T, _) = half_step(dt), xs.shape
+    x, P, total = np.zeros((M, 4)), np.eye(4), 0.0
+    for t in range(T):
+        if t > 0:
+            x, P = x @ A.T, A @ P @ A.T + GQGt
+        if predicted:
+            e = xs[:, t] - x
+            total += np.einsum("mi,ij,mj->", e, inv(P), e)
+        K = P @ C.T @ inv(C @ P @ C.T + np.eye(2))
+        x, P = x + (ys[:, t] - x @ C.T) @ K.T, P - K @ C @ P
+        if not predicted:
+            e = xs[:, t] - x
+            total += np.einsum("mi,ij,mj->", e, inv(P), e)
+    return total / (M * T)
 
 
-@pytest.mark.parametrize("variance, phrases", [
-    (np.sqrt(VAR_2), ["standard deviation", "square"]),
-    (sigma(98)[2, 2], ["t = 98", "covs[-1]"]),
-    (sigma(100)[2, 2], ["t = 100"]),
-    (ONE_AXIS[-1, 0, 0], ["a position the sensor measures"]),
-    (ONE_AXIS[-1, 3, 3], ["velocity x2_dot"]),
-    (ONE_AXIS[-1, 1, 1], ["x1_dot", "by name"]),
-    (1.0, ["prior variance"]),
-    (2 * VAR_2, ["simple factor"]),
+XS_2, YS_2 = runs_2()
+GQGT_2, OLD_2 = design(0.5, 0.1), design(1.0, 0.1)
+NEES_2, NEES_OLD_2 = mean_nees(GQGT_2, XS_2, YS_2, 0.5), mean_nees(OLD_2, XS_2, YS_2, 0.5)
+HIDDEN_2 = (GQGT_2[GQGT_2 != 0], NEES_2, NEES_OLD_2)
+
+
+def test_exercise_2_accepts_the_written_out_reference():
+    assert abs(NEES_2 - 4) < 0.1 and NEES_OLD_2 < 3.2      # consistent; over-cautious
+    correct(ch03.exercise_2(GQGT_2, NEES_2, NEES_OLD_2))
+    correct(ch03.exercise_2(GQGT_2.tolist(), np.float32(NEES_2), np.array([NEES_OLD_2])))
+    correct(ch03.exercise_2(GQGT_2.astype(np.float32), NEES_2, NEES_OLD_2))
+
+
+def continuous(c, dt=0.5):
+    out = np.zeros((4, 4))
+    out[:2, :2] = out[2:, 2:] = c * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]])
+    return out
+
+
+ORDER = [0, 2, 1, 3]
+
+
+@pytest.mark.parametrize("answer, phrases", [
+    (OLD_2, ["GQGt_2", "section 6's design for Δt = 1"]),
+    (continuous(0.01), ["continuous white-noise model", "sigma_a² g g^T"]),
+    (continuous(0.01 * 0.5), ["continuous white-noise model", "same velocity variance"]),
+    (np.diag([0, 0.01 * 0.25, 0, 0.01 * 0.25]), ["velocity only", "section 2's G"]),
+    (np.diag(np.diag(GQGT_2)), ["position-velocity entries", "correlated"]),
+    (GQGT_2 / 0.1, ["multiplied by sigma_a"]),
+    (GQGT_2 / 0.01, ["multiplied by the push's variance"]),
+    (design(0.5, 0.1) * np.array([[4, 2, 0, 0], [2, 1, 0, 0], [0, 0, 4, 2], [0, 0, 2, 1]]),
+     ["the 1/2 is missing"]),
+    (GQGT_2[np.ix_(ORDER, ORDER)], ["(ξ_1, ξ_2, ξ̇_1, ξ̇_2)", "order_by_dim"]),
+    (GQGT_2[:2, :2], ["per-axis block", "np.kron"]),
+    (np.ones((4, 2)), ["shape of G"]),
+    (GQGT_2 + 0.001 * np.eye(4), ["4 of 16 entries differ"]),
 ])
-def test_exercise_2_diagnoses_the_variance(variance, phrases):
-    fb = ch03.exercise_2(2, "no", variance)
-    wrong(fb, "var_2", *phrases)
-    hides(fb, VAR_2)
+def test_exercise_2_diagnoses_the_design(answer, phrases):
+    fb = ch03.exercise_2(answer, NEES_2, NEES_OLD_2)
+    wrong(fb, *phrases)
+    assert "nees_2: correct." in fb.message and "nees_old_2: correct." in fb.message
+    hides(fb, *HIDDEN_2)
 
 
-@pytest.mark.parametrize("rank, phrases", [
-    (4, ["full rank", "which columns stay zero"]),
-    (1, ["rank of C alone"]),
-    (8, ["between 0 and 4"]),
-    (3, ["np.linalg.matrix_rank"]),
-    (2.5, ["whole number"]),
-    ("2", ["single number"]),
+@pytest.mark.parametrize("nees, nees_old, phrases", [
+    (NEES_OLD_2, NEES_2, ["nees_2: this is the value of nees_old_2",
+                          "nees_old_2: this is the value of nees_2"]),
+    (NEES_2 * 200 * 200, NEES_OLD_2, ["sum over all runs and steps"]),
+    (NEES_2 / 4, NEES_OLD_2 / 4, ["divided by the dimension 4"]),
+    (mean_nees(GQGT_2, XS_2, YS_2, 0.5, predicted=True), NEES_OLD_2, ["uses the predictions"]),
+    (NEES_2, mean_nees(OLD_2, XS_2, YS_2, 0.5, predicted=True), ["nees_old_2: this uses the pred"]),
+    (4.0, NEES_OLD_2, ["4 is what a consistent"]),
+    (NEES_2 + 0.05, NEES_OLD_2, ["nees_2 is too large"]),
 ])
-def test_exercise_2_diagnoses_the_rank(rank, phrases):
-    wrong(ch03.exercise_2(rank, "no", VAR_2), "rank_2", *phrases)
+def test_exercise_2_diagnoses_the_nees(nees, nees_old, phrases):
+    fb = ch03.exercise_2(GQGT_2, nees, nees_old)
+    wrong(fb, *phrases)
+    assert fb.message.count("GQGt_2: correct.") == 1
+    hides(fb, *HIDDEN_2)
 
 
-def test_exercise_2_the_choice():
-    fb = ch03.exercise_2(2, "yes", VAR_2)
-    wrong(fb, "detectable_2 is not the right option", "|lambda| >= 1")
-    assert "rank_2: correct." in fb.message and "var_2: correct." in fb.message
+def test_exercise_2_a_wrong_design_and_its_own_nees():
+    """A student who designs section 2's G and reports its NEES hears about the design first."""
+    sec2 = np.diag([0, 0.0025, 0, 0.0025])
+    fb = ch03.exercise_2(sec2, mean_nees(sec2, XS_2, YS_2, 0.5), NEES_OLD_2)
+    wrong(fb, "velocity only", "mean NEES of your GQGt_2", "fix GQGt_2 first")
+    assert fb.message.index("velocity only") < fb.message.index("fix GQGt_2 first")
+
+
+def test_exercise_2_a_teacher_changes_the_step_and_the_push():
+    """The check reads dt_2, sigma_a_2, A_2, xs_2 and ys_2 from the notebook."""
+    dt, sigma_a = 0.25, 0.2
+    xs, ys = runs_2(dt, sigma_a, M=40, T=60)
+    ns = {"dt_2": dt, "sigma_a_2": sigma_a, "A_2": half_step(dt), "xs_2": xs, "ys_2": ys}
+    right = (design(dt, sigma_a), mean_nees(design(dt, sigma_a), xs, ys, dt),
+             mean_nees(design(1.0, sigma_a), xs, ys, dt))
+    correct(ch03.exercise_2(*right, namespace=ns))
+    wrong(ch03.exercise_2(GQGT_2, NEES_2, NEES_OLD_2, namespace=ns), "GQGt_2")
+    correct(ch03.exercise_2(GQGT_2, NEES_2, NEES_OLD_2))          # the statement's own numbers
 
 
 def test_exercise_2_not_attempted_and_garbage():
     not_attempted(ch03.exercise_2(None, None, None))
+    fb = ch03.exercise_2(GQGT_2, None, NEES_OLD_2)
+    assert fb.status == NOT_ATTEMPTED and "nees_2: not attempted yet" in fb.message
     for garbage in GARBAGE:
         assert ch03.exercise_2(garbage, garbage, garbage).status == INCORRECT, garbage
+    # a "design" that is no covariance: the check does not crash filtering it
+    fb = ch03.exercise_2(-np.eye(4), NEES_2, NEES_OLD_2)
+    wrong(fb, "GQGt_2")
 
 
 # ---------------------------------------------------------------------------
@@ -426,6 +501,15 @@ def test_exercise_4_diagnoses_the_slope(slope, phrases):
     hides(fb, SLOPE)
 
 
+def test_exercise_4_a_teacher_changes_the_slope_lengths():
+    slope = np.log(end_of_gap(30) / end_of_gap(5)) / np.log(6)
+    ns = {"short_4": 5, "long_4": 30}
+    correct(ch03.exercise_4(end_of_gap, slope, namespace=ns))
+    wrong(ch03.exercise_4(end_of_gap, SLOPE, namespace=ns), "slope_4")
+    fb = ch03.exercise_4(end_of_gap, np.log(end_of_gap(30) / end_of_gap(5)) / 25, namespace=ns)
+    wrong(fb, "not of the length", "log 30 - log 5")
+
+
 def test_exercise_4_not_attempted_and_garbage():
     not_attempted(ch03.exercise_4(None, None))
     fb = ch03.exercise_4(not_implemented, None)
@@ -476,7 +560,7 @@ def test_exercise_5_accepts_the_formula():
     (np.vstack([lags(0.01, 1.0)[0], LAG1[1:]]), ["row 1", "the correct model"]),
     (np.array([lags(q, r, ys=bf.models.simulate(bf.models.damped_particle(), 1000,
                                                  np.random.default_rng(6)).ys)[0]
-               for q, r in ROWS]), ["another record", "seed 5", "np.corrcoef"]),
+               for q, r in ROWS]), ["another run", "ys_long of the answer cell", "np.corrcoef"]),
     (LAG1.T, ["transposed"]),
     (LAG1[:, 0], ["shape (3, 2)"]),
     (np.zeros((20, 2)), ["lag 1 only"]),
@@ -503,6 +587,13 @@ def test_exercise_5_raw_innovations_are_close_enough():
 ])
 def test_exercise_5_the_choice(sees, phrases):
     wrong(ch03.exercise_5(LAG1, sees), *phrases)
+
+
+def test_exercise_5_a_teacher_changes_the_long_run():
+    ys = bf.models.simulate(bf.models.damped_particle(), 600, np.random.default_rng(55)).ys
+    rows = np.array([lags(q, r, ys=ys)[0] for q, r in ROWS])
+    correct(ch03.exercise_5(rows, "ratio", namespace={"ys_long": ys, "N_long": 600}))
+    assert ch03.exercise_5(LAG1, "ratio", namespace={"ys_long": ys}).status == INCORRECT
 
 
 def test_exercise_5_not_attempted_and_garbage():

@@ -2,11 +2,13 @@
 One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
     exercise_1(stabilising_1, std_1, radius_1): the steady state of damped_particle(damping=1.0) [model_1];
-    exercise_2(rank_2, detectable_2, var_2): observability and detectability with C = [1, 0, 0, 0] [model_2];
+    exercise_2(GQGt_2, nees_2, nees_old_2): G Q G^T designed for a half step, and the mean NEES of that design
+        and of section 6's design for one step, on the simulated runs [dt_2, sigma_a_2, A_2, xs_2, ys_2];
     exercise_3(normalised_squared): the NEES / NIS d_t^T P_t^{-1} d_t, on six inputs;
     exercise_4(end_of_gap_variance, slope_4): the variance at the end of a gap in the data, and its log-log slope
-        (and section 1's ys, put back if an answer wrote NaN into it) [ys];
-    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of z_t under three mistuned models [models_5].
+        (and section 1's ys, put back if an answer wrote NaN into it) [ys, short_4, long_4];
+    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of z_t under three mistuned models
+        [models_5, ys_long].
 """
 
 from __future__ import annotations
@@ -20,14 +22,14 @@ from . import (INCORRECT, Feedback, _Stop, _as_numbers, _combine, _each_case, _f
 from .. import gaussian, kalman, models
 
 # the statements' numbers (ex 4 tries length 10 first: at length 1, zeros for NaN and one step early agree; ex 5:
-# Q ×10 and R ×0.1 share Q / R, so the gain and z_t); 5 spreads of a lag-1 value between records of 1000 steps
+# Q ×10 and R ×0.1 share Q / R, so the gain and z_t); 5 spreads of a lag-1 value between runs of 1000 steps
 SECTION_1_SEED, T, DAMPING_1, ATOL_1, YES_NO = 2024, 100, 1.0, 2e-4, ("yes", "no")
-C_2, R_2, STEP_2, RTOL_2 = _frozen([[1.0, 0.0, 0.0, 0.0]]), _frozen([[1.0]]), T - 1, 5e-4
+DT_2, SIGMA_A_2, M_2, T_2, SEED_2, DAMPING, RTOL_2 = 0.5, 0.1, 200, 200, 22, 0.98, 1e-6
 CORRELATED_3, ERRORS_3, SEED_3 = _frozen([[1.0, 0.95], [0.95, 1.0]]), _frozen([[1.0, -1.0], [1.0, 1.0]]), 3033
 GAP_START, GAP_LENGTHS, SLOPE_LENGTHS, ATOL_SLOPE = 40, (10, 20, 1, 2, 5, 33, 60), (10, 20), 0.006
 MODELS_5 = (("Q ×10", dict(force_var=0.1)), ("R ×0.1", dict(meas_var=0.1)), ("R ×10", dict(meas_var=10.0)))
-OTHER_MODELS_5 = (("the correct model", {}), ("Q ×0.1 (section 6)", dict(force_var=0.001)))
-LONG_SEED, N_LONG, ATOL_5, OTHER_RECORD_5, OPTIONS_5 = 5, 1000, 2e-3, 5 / np.sqrt(1000), ("ratio", "scale", "neither")
+OTHER_MODELS_5 = (("the correct model", {}), ("Q ×0.1 (section 13)", dict(force_var=0.001)))
+LONG_SEED, N_LONG, ATOL_5, OTHER_RUN_5, OPTIONS_5 = 5, 1000, 2e-3, 5 / np.sqrt(1000), ("ratio", "scale", "neither")
 SEES_5 = "sha256:ch03-ex5:7253dfb99bf17a340b58"          # the right option of sees_5, as a digest
 _X1, _V1 = models.damped_particle().index_of("x1", "x1_dot")          # the components of the gap's mistakes
 
@@ -46,7 +48,7 @@ def _number(answer, expected, what, mistakes=(), rtol=0.0, atol=0.0, fallback=""
 
 def _steady_of(model) -> dict:                         # std of ξ_1, ..., the spectral radius and its mistakes
     ss, (x1, v1), pos = kalman.steady_state(model), model.index_of("x1", "x1_dot"), model.index_of("x1", "x2")
-    eig = np.linalg.eigvals(model.A @ (np.eye(model.state_dim) - ss.gain @ model.C))    # Phi = A (I - K C)
+    eig = np.linalg.eigvals(model.A @ (np.eye(model.state_dim) - ss.gain @ model.C))    # Psi = A (I - K C)
     return dict(std=np.sqrt(ss.cov[x1, x1]), var=ss.cov[x1, x1], pred_std=np.sqrt(ss.pred_cov[x1, x1]),
                 vel_std=np.sqrt(ss.cov[v1, v1]), both=np.sqrt(np.trace(ss.cov[np.ix_(pos, pos)])),
                 radius=np.abs(eig).max(), real=np.abs(eig.real).max(),
@@ -60,13 +62,6 @@ def _steady(damping: float) -> dict:
 
 def _yes_no(flag: bool) -> str:
     return YES_NO[0] if flag else YES_NO[1]
-
-
-def _detectable(A, C) -> bool:
-    """(A, C) detectable: every mode with |lambda| >= 1 shows in C (the PBH test)."""
-    n = len(A)
-    return all(np.linalg.matrix_rank(np.vstack([lam * np.eye(n) - A, C])) == n
-               for lam in np.linalg.eigvals(A) if abs(lam) >= 1 - 1e-9)
 
 
 def exercise_1(stabilising, std, radius) -> Feedback:
@@ -95,7 +90,7 @@ def exercise_1(stabilising, std, radius) -> Feedback:
             (d["radius"], damped), (u["radius"] ** 2, "this is |lambda|_max², the rate at which P_{t|t-1} approaches "
                                     "P_inf (section 12); the spectral radius is |lambda|_max itself."),
             (1.0, "1 is the spectral radius of A (and, to 4 decimals, of I - K_inf C); errors move by A (I - K_inf "
-                  "C) (section 7)."),
+                  "C) (optional section 12)."),
             (u["real"], "this is the largest real part; the eigenvalues of A (I - K_inf C) are complex: take their "
              "modulus (np.abs), not .real."),
             (u["a_minus_kc"], "this is the spectral radius of A - K_inf C; the update comes before the prediction, "
@@ -103,8 +98,8 @@ def exercise_1(stabilising, std, radius) -> Feedback:
     ])
 
 
-_HINT_1 = ("try bf.kalman.steady_state on model_1, and reread section 7's two conditions (detectable, "
-           "stabilisable): which mode of A would each need?")
+_HINT_1 = ("try bf.kalman.steady_state on model_1, and reread optional section 12's two conditions "
+           "(detectable, stabilisable): which mode of A would each need?")
 
 
 @functools.lru_cache(maxsize=1)
@@ -112,49 +107,124 @@ def _section_1():
     return models.simulate(models.damped_particle(), T, np.random.default_rng(SECTION_1_SEED))
 
 
-def _one_axis(model) -> dict:                          # the filter of model_2 on section 1's ys[:, :m]
-    ys = _section_1().ys[:, :model.C.shape[0]]
-    out, n, A = kalman.kalman_filter(model, ys), model.state_dim, model.A
-    named = model.state_names is not None and {"x1", "x1_dot", "x2", "x2_dot"} <= set(model.state_names)
-    (x1, v1, x2, v2), P = (model.index_of("x1", "x1_dot", "x2", "x2_dot") if named else (0, 1, 2, 3)), out.covs[-1]
-    after = kalman.predict(out.means[-1], out.covs[-1], A, model.Q, G=model.G).cov     # t = T
-    rank = lambda C: np.linalg.matrix_rank(np.vstack([C @ np.linalg.matrix_power(A, k) for k in range(n)]))
-    return dict(var=P[x2, x2], std=np.sqrt(P[x2, x2]), before=out.covs[-2, x2, x2], after=after[x2, x2],
-                measured=P[x1, x1], vel=P[v2, v2], vel1=P[v1, v1], prior=model.P0[x2, x2], rank=rank(model.C),
-                rank_c=np.linalg.matrix_rank(model.C), rank_full=rank(models.damped_particle().C), n=n,
-                detectable=_detectable(A, model.C))
+def _block(dt: float, sigma_a: float) -> np.ndarray:
+    """The per-axis block of G Q G^T, piecewise-constant acceleration: sigma_a^2 g g^T, g = [dt^2/2, dt]."""
+    g = np.array([dt ** 2 / 2, dt])
+    return sigma_a ** 2 * np.outer(g, g)
 
 
-def exercise_2(rank, detectable, variance) -> Feedback:
-    """rank_2, detectable_2 and var_2, the variance of ξ_2 at t = 99, for model_2 (C = [1, 0, 0, 0], R = 1)."""
-    model = given("model_2", None)
-    if model is None:
-        dp = models.damped_particle()
-        model = models.LinearGaussian(A=dp.A, C=C_2, Q=dp.Q, R=R_2, m0=dp.m0, P0=dp.P0, G=dp.G,
-                                      state_names=dp.state_names)
-    ref, last = _one_axis(model), f"the last step of the run is t = {T - 1} (covs[-1])."
+def _both_axes(block) -> np.ndarray:                   # state order (xi_1, xi_1 dot, xi_2, xi_2 dot)
+    return np.kron(np.eye(2), block)
+
+
+def _half_step_A(dt: float) -> np.ndarray:
+    return _both_axes(np.array([[1.0, dt], [0.0, DAMPING ** dt]]))
+
+
+@functools.lru_cache(maxsize=4)
+def _runs_2(dt: float, sigma_a: float) -> tuple[np.ndarray, np.ndarray]:
+    """The statement's runs (xs_2, ys_2), as the answer cell simulates them (for a check without a notebook)."""
+    A, rng, xs = _half_step_A(dt), np.random.default_rng(SEED_2), np.zeros((M_2, T_2, 4))
+    xs[:, 0] = rng.normal(size=(M_2, 4))
+    for t in range(1, T_2):
+        a = rng.normal(0.0, sigma_a, size=(M_2, 2))
+        xs[:, t] = xs[:, t - 1] @ A.T + np.kron(a, [dt ** 2 / 2, dt])
+    return xs, xs[..., [0, 2]] + rng.normal(size=(M_2, T_2, 2))
+
+
+def _nees_of(GQGt, A, xs, ys, predicted: bool = False) -> float | None:
+    """Mean NEES of the filter (A, section 2's C, GQGt, R = I, m0 = 0, P0 = I) on the runs; None if GQGt is no
+    covariance (with predicted, of the predictions x_t|t-1, P_t|t-1: a named mistake)."""
+    try:
+        fm = models.LinearGaussian(A, models.damped_particle().C, GQGt, np.eye(2), np.zeros(4), np.eye(4))
+        out = kalman.batch_kalman_filter(fm, ys)
+    except (ValueError, TypeError, np.linalg.LinAlgError):
+        return None
+    means, covs = (out.pred_means, out.pred_covs) if predicted else (out.means, out.covs)
+    return float(gaussian.squared_mahalanobis(xs - means, covs).mean())
+
+
+_NEES_2: dict = {}
+
+
+def _nees_2(key: str, GQGt, A, xs, ys, predicted: bool = False) -> float | None:
+    """_nees_of, remembered per design and data (a check cell asks for the same few designs again)."""
+    digest_ = (key, predicted, np.asarray(GQGt, float).tobytes(), A.tobytes(), xs.tobytes()[:4096], xs.shape,
+               float(np.sum(xs)), float(np.sum(ys)), ys.shape)
+    if digest_ not in _NEES_2:
+        if len(_NEES_2) > 32:
+            _NEES_2.clear()
+        _NEES_2[digest_] = _nees_of(GQGt, A, xs, ys, predicted)
+    return _NEES_2[digest_]
+
+
+def _data_2():
+    """(dt, sigma_a, A, xs, ys) of the statement: the notebook's, else the statement's own numbers."""
+    dt, sigma_a = float(given("dt_2", DT_2)), float(given("sigma_a_2", SIGMA_A_2))
+    A, xs, ys = given("A_2", None), given("xs_2", None), given("ys_2", None)
+    A = _half_step_A(dt) if A is None else np.asarray(A, dtype=float)
+    if xs is None or ys is None:
+        xs, ys = _runs_2(dt, sigma_a)
+    return dt, sigma_a, A, np.asarray(xs, dtype=float), np.asarray(ys, dtype=float)
+
+
+def exercise_2(GQGt, nees, nees_old) -> Feedback:
+    """GQGt_2, G Q G^T for one half step (piecewise-constant acceleration), and the mean NEES nees_2 of that design
+    and nees_old_2 of section 6's design for dt = 1 on the runs xs_2, ys_2."""
+    dt, sigma_a, A, xs, ys = _data_2()
+    right, old = _both_axes(_block(dt, sigma_a)), _both_axes(_block(1.0, sigma_a))
+    g, s2 = np.array([dt ** 2 / 2, dt]), sigma_a ** 2
+    continuous = lambda c: _both_axes(c * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]]))  # noqa: E731
+    order = [0, 2, 1, 3]                               # (xi_1, xi_2, xi_1 dot, xi_2 dot), filterpy's other order
+    pc = "the acceleration is constant within each half step, so the block is sigma_a² g g^T with g = [Δt²/2, Δt]."
+    design = _named(GQGt, right, "GQGt_2", rtol=1e-6, atol=1e-12, mistakes=[
+        (old, "GQGt_2: this is section 6's design for Δt = 1 (G_pc G_pc^T sigma_a²); every power of Δt must be "
+              "that of dt_2 = 0.5."),
+        (continuous(s2), "GQGt_2: this is the continuous white-noise model's block; " + pc),
+        (continuous(s2 * dt), "GQGt_2: this is the continuous white-noise model's block (with the same velocity "
+                              "variance); " + pc),
+        (_both_axes(np.diag([0.0, s2 * dt ** 2])), "GQGt_2: this puts the push on the velocity only (section 2's "
+         "G); within the half step the push also moves the position, by a Δt²/2: g = [Δt²/2, Δt]."),
+        (_both_axes(np.diag(np.diag(_block(dt, sigma_a)))), "GQGt_2: the position-velocity entries sigma_a² Δt³/2 "
+         "are missing: one push moves both, so they are correlated (G Q G^T, not its diagonal)."),
+        (_both_axes(sigma_a * np.outer(g, g)), "GQGt_2: you multiplied by sigma_a; the push's variance is "
+                                               "sigma_a² (sigma_a_2**2)."),
+        (_both_axes(np.outer(g, g)), "GQGt_2: the block must be multiplied by the push's variance sigma_a²."),
+        (_both_axes(s2 * np.outer([dt ** 2, dt], [dt ** 2, dt])), "GQGt_2: the position moves by a Δt²/2 within "
+         "the half step (the 1/2 is missing)."),
+        (right[np.ix_(order, order)], "GQGt_2 is in the order (ξ_1, ξ_2, ξ̇_1, ξ̇_2) (filterpy's order_by_dim="
+         "False); the chapter's state is (ξ_1, ξ̇_1, ξ_2, ξ̇_2)."),
+        (_block(dt, sigma_a), "GQGt_2 is the per-axis block (2 x 2); give G Q G^T for both axes, shape (4, 4): "
+                              "np.kron(np.eye(2), block)."),
+        (lambda a: a.shape == (4, 2) or a.shape == (2, 4), "GQGt_2 has the shape of G; give G Q G^T, shape (4, 4)."),
+    ])
+    ref, ref_old = _nees_2("right", right, A, xs, ys), _nees_2("old", old, A, xs, ys)
+    if ref is None or ref_old is None:                 # a teacher's statement the filter cannot run
+        return _combine([("GQGt_2", design)])
+    own = None
+    if not design.correct:                             # the student's own design, if the filter takes it
+        a, bad = _as_numbers(GQGt, "GQGt_2")
+        own = _nees_2("own", a, A, xs, ys) if bad is None and a.shape == (4, 4) else None
+    steps = np.prod(xs.shape[:2])
+    nees_mistakes = lambda this, other, name: [        # noqa: E731
+        (own if this == "nees_2" else None, "this is the mean NEES of your GQGt_2, which is not yet right: fix "
+                                            "GQGt_2 first."),
+        (other, f"this is the value of {name}; check which design you passed to nees_2_of."),
+        (ref * steps if this == "nees_2" else ref_old * steps, "this is the sum over all runs and steps; "
+                                                                "the NEES asked for is their mean."),
+        ((ref if this == "nees_2" else ref_old) / 4, "you divided by the dimension 4; a consistent "
+                                                     "filter's mean NEES is near 4, not 1."),
+        (_nees_2("pred", right if this == "nees_2" else old, A, xs, ys, predicted=True), "this uses the "
+         "predictions (pred_means, pred_covs); the NEES uses the filtered x_t|t and P_t|t."),
+        (4.0, "4 is what a consistent filter's mean NEES should be near; give the value measured on "
+              "ys_2 with nees_2_of."),
+    ]
     return _combine([
-        ("rank_2", _number(rank, ref["rank"], "rank_2", fallback="this is not the rank of [C; CA; CA²; CA³]; "
-                           "compute it with np.linalg.matrix_rank.", mistakes=[
-            (lambda v: v != round(v), "a rank counts independent rows: it is a whole number."),
-            (lambda v: not 0 <= v <= ref["n"], f"the observability matrix has {ref['n']} columns here, so its rank "
-                                               f"lies between 0 and {ref['n']}."),
-            (ref["rank_full"], "full rank would mean that noise-free y_0, ..., y_3 determine the whole state, as with "
-             "the chapter's sensor. Write out the rows C A^k for C = [1, 0, 0, 0]: which columns stay zero?"),
-            (ref["rank_c"], "this is the rank of C alone; stack C, CA, CA², CA³ (section 7) and take the rank of "
-             "the 4 x 4 result (np.linalg.matrix_rank).")])),
-        ("detectable_2", compare_choice(detectable, _yes_no(ref["detectable"]), YES_NO, "detectable_2",
-                                        "detectability asks about every mode of A with |lambda| >= 1 (section 7): "
-                                        "does each show in y = C x + v? Try bf.kalman.steady_state.")),
-        ("var_2", _number(variance, ref["var"], "var_2", rtol=RTOL_2, mistakes=[
-            (ref["std"], "this is the standard deviation (m); the variance is its square (m²)."),
-            (ref["before"], f"this is the variance at t = {T - 2}; the run has T = {T} steps, so " + last),
-            (ref["after"], f"this is one prediction beyond the run, t = {T}; " + last),
-            (ref["measured"], "this is the variance of a position the sensor measures (ξ_1 here, or ξ_2 in the "
-             "chapter's filter); C = [1, 0, 0, 0] never measures ξ_2."),
-            (ref["vel"], "this is the velocity x2_dot (ξ̇_2, (m/step)²); ξ_2 is model.index_of('x2')."),
-            (ref["vel1"], "this is x1_dot: in [x1, x1_dot, x2, x2_dot] column 1 is a velocity; select ξ_2 by name."),
-            (ref["prior"], "this is the prior variance P_0 of ξ_2; the variance changes at each prediction.")])),
+        ("GQGt_2", design),
+        ("nees_2", _number(nees, ref, "nees_2", rtol=RTOL_2, mistakes=nees_mistakes("nees_2", ref_old,
+                                                                                    "nees_old_2"))),
+        ("nees_old_2", _number(nees_old, ref_old, "nees_old_2", rtol=RTOL_2,
+                               mistakes=nees_mistakes("nees_old_2", ref, "nees_2"))),
     ])
 
 
@@ -278,8 +348,17 @@ def exercise_4(end_of_gap_variance, slope) -> Feedback:
     return _wrong(f"{fb.message} (Also: {repaired})") if repaired else fb
 
 
+def _slope_lengths() -> tuple[int, int]:
+    """short_4 and long_4 of the answer cell (a teacher may change them), else the statement's (10, 20)."""
+    try:
+        lo, hi = int(given("short_4", SLOPE_LENGTHS[0])), int(given("long_4", SLOPE_LENGTHS[1]))
+    except (TypeError, ValueError):
+        return SLOPE_LENGTHS
+    return (lo, hi) if 1 <= lo < hi <= T - GAP_START else SLOPE_LENGTHS
+
+
 def _exercise_4(end_of_gap_variance, slope) -> Feedback:
-    (lo, hi), fun = SLOPE_LENGTHS, None if end_of_gap_variance is Ellipsis else end_of_gap_variance
+    (lo, hi), fun = _slope_lengths(), None if end_of_gap_variance is Ellipsis else end_of_gap_variance
     v_lo, v_hi, d_log_l = _gap_var(lo), _gap_var(hi), np.log(hi / lo)
     expected, mixed = np.log(v_hi / v_lo) / d_log_l, "you mixed two logarithms ({}); use the same one for both."
     return _combine([
@@ -292,43 +371,62 @@ def _exercise_4(end_of_gap_variance, slope) -> Feedback:
             (np.log(_gap_var(hi, 1) / _gap_var(lo, 1)) / d_log_l, "this uses the variances at t = 40 + length, after "
              "the gap, already updated; use those at its last step, t = 39 + length (your end_of_gap_variance)."),
             ((v_hi - v_lo) / (hi - lo), "this is the slope of the variance itself; take the logarithm of both."),
-            (np.log(v_hi / v_lo) / (hi - lo), "you took the logarithm of the variance but not of the length: divide "
-             "by log 20 - log 10."),
+            (np.log(v_hi / v_lo) / (hi - lo), f"you took the logarithm of the variance but not of the length: divide "
+             f"by log {hi} - log {lo}."),
             (np.log10(v_hi / v_lo) / d_log_l, mixed.format("log10 and ln")),
             (np.log(v_hi / v_lo) / np.log10(hi / lo), mixed.format("ln and log10")),
             (1 / expected, "you divided the other way round: the slope is d log(variance) / d log(length)."),
-            (v_hi / v_lo, "this is the ratio v(20) / v(10); the slope takes logarithms: log(v(20) / v(10)) / log 2."),
-            (np.log(v_hi / v_lo), "you did not divide by log 20 - log 10 = log 2: the slope is a ratio of two "
-             "logarithms.")])),
+            (v_hi / v_lo, f"this is the ratio v({hi}) / v({lo}); the slope takes logarithms: "
+                          f"log(v({hi}) / v({lo})) / log({hi} / {lo})."),
+            (np.log(v_hi / v_lo), f"you did not divide by log {hi} - log {lo}: the slope is a ratio of two "
+             f"logarithms.")])),
     ])
 
 
 @functools.lru_cache(maxsize=1)
-def _ys_long() -> np.ndarray:
+def _statement_ys_long() -> np.ndarray:
     return models.simulate(models.damped_particle(), N_LONG, np.random.default_rng(LONG_SEED)).ys
 
 
-def _lags(model) -> tuple[np.ndarray, np.ndarray]:
-    """(lags 1-5 of z_t, shape (5, 2); lag 1 of r_t, (2,)) of the filter of model on ys_long."""
-    res = kalman.kalman_filter(model, _ys_long())
+def _ys_long() -> np.ndarray:
+    """The long run ys_long of the answer cell (a teacher may change it, or N_long), else the statement's."""
+    ys = given("ys_long", None)
+    try:
+        ys = np.asarray(ys, dtype=float)
+    except (TypeError, ValueError):
+        ys = None
+    ok = ys is not None and ys.ndim == 2 and ys.shape[1] == 2 and len(ys) > 5 and np.isfinite(ys).all()
+    return ys if ok else _statement_ys_long()
+
+
+def _lags(model, ys) -> tuple[np.ndarray, np.ndarray]:
+    """(lags 1-5 of z_t, shape (5, 2); lag 1 of r_t, (2,)) of the filter of model on the long run ys."""
+    res = kalman.kalman_filter(model, ys)
     z = gaussian.normalised_innovations(res.innovations, res.innovation_covs)
     return gaussian.autocorrelation(z, 5), gaussian.autocorrelation(res.innovations, 1)[0]
 
 
-@functools.lru_cache(maxsize=None)
-def _lags_of(label: str) -> tuple[np.ndarray, np.ndarray]:
-    return _lags(models.damped_particle(**dict(MODELS_5 + OTHER_MODELS_5)[label]))
+_LAGS: dict = {}
+
+
+def _lags_of(label: str, ys) -> tuple[np.ndarray, np.ndarray]:
+    key = (label, ys.shape, ys.tobytes()[:4096], float(ys.sum()))
+    if key not in _LAGS:
+        if len(_LAGS) > 32:
+            _LAGS.clear()
+        _LAGS[key] = _lags(models.damped_particle(**dict(MODELS_5 + OTHER_MODELS_5)[label]), ys)
+    return _LAGS[key]
 
 
 def exercise_5(lag1, sees) -> Feedback:
     """lag1_5 (3, 2), the lag-1 autocorrelations of z_t for the models of models_5 (Q ×10, R ×0.1, R ×10)
     on ys_long, and sees_5."""
-    given_models, w, labels = given("models_5", None), "lag1_5", [label for label, _ in MODELS_5]
-    rows = [_lags_of(x) for x in labels] if given_models is None else [_lags(m) for m in given_models]
+    given_models, w, labels, ys = given("models_5", None), "lag1_5", [label for label, _ in MODELS_5], _ys_long()
+    rows = [_lags_of(x, ys) for x in labels] if given_models is None else [_lags(m, ys) for m in given_models]
     lag = lambda k: np.array([z[k - 1] for z, _ in rows])  # noqa: E731
     close = functools.partial(np.allclose, atol=ATOL_5)
     expected, lag_is = lag(1), "autocorrelation(z, max_lag)[0] is lag 1 (row k - 1 holds lag k)."
-    others = [(x, _lags_of(x)[0][0]) for x, _ in OTHER_MODELS_5] + list(zip(labels, expected))
+    others = [(x, _lags_of(x, ys)[0][0]) for x, _ in OTHER_MODELS_5] + list(zip(labels, expected))
 
     def mixup(a) -> str | None:         # a row that holds the values of another model
         for row, label in enumerate(labels):
@@ -356,10 +454,10 @@ def exercise_5(lag1, sees) -> Feedback:
             *[(expected[list(order)], f"{w} has its rows in another order; the order is Q ×10, R ×0.1, R ×10 "
                f"(models_5).") for order in ((0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0))],
             (lambda a: a.shape == (3, 2) and mixup(a) is not None, mixup),
-            (lambda a: a.shape == (3, 2) and np.all(np.abs(a - expected) < OTHER_RECORD_5)
+            (lambda a: a.shape == (3, 2) and np.all(np.abs(a - expected) < OTHER_RUN_5)
              and np.all(np.sign(a) == np.sign(expected)), f"{w} is close to the right values but not equal to 3 "
-             f"decimals: another record, or another estimate of the correlation (np.corrcoef, your own formula)? "
-             f"Filter ys_long of section 6 (1000 steps, seed 5), use bf.gaussian.autocorrelation(z, 1)[0].")])),
+             f"decimals: another run, or another estimate of the correlation (np.corrcoef, your own formula)? "
+             f"Filter ys_long of the answer cell ({len(ys)} steps), use bf.gaussian.autocorrelation(z, 1)[0].")])),
         ("sees_5", compare_choice(sees, SEES_5, OPTIONS_5, "sees_5", "compare the rows of Q ×10 and R ×0.1, two "
                                   "models with the same Q / R, and then their NIS in section 5's table.")),
     ])
