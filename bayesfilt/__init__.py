@@ -7,6 +7,7 @@ Import it as ``bf`` and reach each concept through its module::
     bf.gaussian   # conditioning a jointly Gaussian vector -- chapter 02
     bf.kalman     # Kalman filter                          -- chapters 02-03
     bf.ekf        # extended Kalman filter                 -- chapter 04
+    bf.ukf        # unscented transform and Kalman filter  -- chapter 08
     bf.models     # state-space models and simulation      -- chapters 02-06
     bf.particle   # particle filters (SIS, bootstrap, SIR) -- chapters 05-06
     bf.resampling # resampling schemes                     -- chapter 06
@@ -24,7 +25,7 @@ import importlib
 
 __version__ = "0.1.0"
 
-_MODULES = ("bayes", "gaussian", "kalman", "ekf", "models", "particle", "resampling", "plotting", "verify", "checks")
+_MODULES = ("bayes", "gaussian", "kalman", "ekf", "ukf", "models", "particle", "resampling", "plotting", "verify", "checks")
 __all__ = list(_MODULES)
 
 

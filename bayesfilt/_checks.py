@@ -26,6 +26,7 @@ __all__ = [
     "as_noise_gain",
     "check_output",
     "require_finite",
+    "observation_masks",
 ]
 
 
@@ -227,3 +228,19 @@ def require_finite(where: str, what: str, a) -> None:
         raise ValueError(f"{where}: {what} overflowed to a non-finite value"
                          + (f" at index {index}" if index else "")
                          + "; the model or the data are too large for floating point")
+
+
+def observation_masks(ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The masks of a measurement record ``ys`` (..., m) in which NaN marks a missing component.
+
+    Returns ``observed`` (...): True where at least one component of the row
+    was measured, and ``observed_components`` (..., m): True where the
+    component was measured. ValueError naming the index of an inf.
+    """
+    if np.isfinite(ys).all():
+        return np.ones(ys.shape[:-1], dtype=bool), np.ones(ys.shape, dtype=bool)
+    if np.isinf(ys).any():
+        where = tuple(int(i) for i in np.argwhere(np.isinf(ys))[0])
+        raise ValueError(f"ys must be finite or NaN (missing), got inf at index {where}")
+    components = ~np.isnan(ys)
+    return components.any(axis=-1), components

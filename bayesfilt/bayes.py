@@ -48,7 +48,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.special import ndtr
 
-from ._checks import as_array, as_int, as_positive_float, as_vector, check_callable
+from ._checks import (as_array, as_int, as_positive_float, as_vector, check_callable,
+                      observation_masks)
 
 __all__ = [
     "BayesUpdate",
@@ -499,7 +500,9 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
     model : bf.models.LinearGaussian or NonlinearGaussian
         With ``state_dim == 1`` and a transition density (Q > 0).
     ys : array_like, shape (T, m) or (T,) when m = 1
-        Measurements; ``ys[0]`` measures :math:`x_0`; an all-NaN row is missing.
+        Measurements; ``ys[0]`` measures :math:`x_0`; an all-NaN row is
+        missing; a partly-NaN row uses the likelihood of its observed
+        components (``model.measurement_logpdf(y, x, observed=...)``).
     grid : array_like, shape (n,)
         Equally spaced cell centres, strictly increasing.
 
@@ -524,6 +527,7 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
     ys = as_array("ys", ys, ndim=2, finite=False)
     if ys.shape[1] != m or ys.shape[0] == 0:
         raise ValueError(f"ys must have shape (T, {m}) with T >= 1, got shape {ys.shape}")
+    observation_masks(ys)  # an inf is an error (NaN is a missing component)
     cells = g[:, None]
     # p(x_0 = g_j): the prior density at the cell centres, normalised over the grid
     prior = np.exp(_logpdf_prior(model, g))
@@ -548,7 +552,10 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
             posteriors[t] = prior
             _check_edges(posteriors[t], g, t)
             continue
-        log_lik = model.measurement_logpdf(ys[t], cells)
+        o = ~np.isnan(ys[t])
+        # p(y_t | g_j), or p(y_{t,o} | g_j) of the observed components o of a partly-NaN row
+        log_lik = (model.measurement_logpdf(ys[t], cells) if o.all()
+                   else model.measurement_logpdf(ys[t], cells, observed=o))
         # posterior ∝ p(y_t | g_j) prior_j; the evidence sum_j p(y_t | g_j) prior_j
         shift = log_lik.max()
         if shift == -np.inf:

@@ -41,8 +41,8 @@ from __future__ import annotations
 import numpy as np
 
 from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_vector, check_callable,
-                      check_output, require_finite)
-from .kalman import FilterResult, Prediction, Update, _correct
+                      check_output, observation_masks, require_finite)
+from .kalman import FilterResult, Prediction, Update, _correct, _embed, _select
 
 __all__ = ["predict", "update", "extended_kalman_filter", "numerical_jacobian"]
 
@@ -196,24 +196,40 @@ def update(x, P, y, h, H, R, residual=None) -> Update:
     return _update(x, P, y, h, H, R, residual)
 
 
-def _update(x, P, y, h, H, R, residual) -> Update:
-    """:func:`update` without the argument checks (the filter checks once)."""
+def _update(x, P, y, h, H, R, residual, o=None) -> Update:
+    """:func:`update` without the argument checks (the filter checks once).
+
+    ``o`` (m,) bool, if given, marks the observed components of ``y`` (the
+    others may be NaN): the update then uses the rows of h and H and the
+    rows and columns of R that o selects, and returns full-shape fields
+    (see ``bf.kalman.FilterResult`` for what a missing component records).
+    """
     n, m = x.shape[0], y.shape[0]
     Hx = _call("ekf.update", "Jacobian H", H, x, (m, n))
     y_pred = _call("ekf.update", "h", h, x, (m,))
+    if o is not None:
+        # a missing component is given the predicted value, so that residual() sees
+        # finite numbers (0 there for a component-wise residual); it is then dropped
+        y = np.where(o, y, y_pred)
     if residual is None:
         innovation = y - y_pred
     else:
         innovation = _call("ekf.update", "residual",
                            lambda _: residual(y.copy(), y_pred.copy()), x, (m,))
+    Hx_o, R_o, r = Hx, R, innovation
+    if o is not None:
+        # y_o = h_o(x) + v_o, v_o ~ N(0, R_oo): the rows of H and the block of R of o
+        (Hx_o, R_o), r = _select(o, Hx, R), innovation[o]
     # The update itself is the Kalman filter's, with the Jacobian H in place of C:
     # S = H P H^T + R, K = P H^T S^{-1}, x + K r and the Joseph-form covariance.
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         try:
-            x_new, P_new, K, _, S, loglik = _correct(x, P, innovation, Hx, R, np.eye(n))
+            x_new, P_new, K, _, S, loglik = _correct(x, P, r, Hx_o, R_o, np.eye(n))
         except ValueError as exc:
             raise ValueError(f"ekf.update: {exc}") from None
     require_finite("ekf.update", "updated covariance", P_new)
+    if o is not None:
+        K, innovation, S = _embed(o, K, r, S)
     return Update(x_new, P_new, K, innovation, S, loglik)
 
 
@@ -230,7 +246,14 @@ def extended_kalman_filter(model, ys) -> FilterResult:
     is :func:`predict` then :func:`update`. A row of ``ys`` that is all NaN is
     a missing measurement: the prediction is kept (``means[t] =
     pred_means[t]``), the innovation is NaN, the gain and the log-likelihood
-    contribution are zero.
+    contribution are zero. A row with some NaN components updates with the
+    observed components o only: the entries o of :math:`h` and the
+    rows o of its Jacobian H, the rows and columns o of R
+    (``bf.kalman.select_observed``), and the log-likelihood of those
+    components. The innovation of a partly-NaN row is
+    ``model.residual(y, h(x))`` with each missing entry of y replaced by its
+    prediction, then NaN in the missing components: ``residual_fn`` must act
+    component by component (as a wrapped bearing does).
 
     Parameters
     ----------
@@ -241,21 +264,23 @@ def extended_kalman_filter(model, ys) -> FilterResult:
         of each step through ``model.transition_functions(t)``. Wrap a linear model with
         ``bf.models.to_nonlinear`` (the EKF then equals the Kalman filter).
     ys : array_like, shape (T, m)
-        Measurements.
+        Measurements; NaN marks a missing component.
 
     Returns
     -------
     bf.kalman.FilterResult
         ``means``, ``covs``, ``pred_means``, ``pred_covs``, ``innovations``,
-        ``innovation_covs``, ``gains``, ``step_logliks``, ``loglik`` and
-        ``observed``. ``loglik`` is the EKF's *approximation* of
-        :math:`\log p(y_0, \dots, y_{T-1})` (exact only for a linear model).
+        ``innovation_covs``, ``gains``, ``step_logliks``, ``loglik``,
+        ``observed`` and ``observed_components``, as in
+        ``bf.kalman.kalman_filter``. ``loglik`` is the EKF's *approximation*
+        of :math:`\log p(y_0, \dots, y_{T-1})` (exact only for a linear
+        model).
 
     Raises
     ------
     ValueError
-        If a row of ``ys`` is partly NaN or contains inf, or if a step fails
-        (the message names the step t and the function at fault).
+        If ``ys`` contains inf, or if a step fails (the message names the
+        step t and the function at fault).
     """
     from .models import NonlinearGaussian  # local import keeps module loading light
 
@@ -271,12 +296,11 @@ def extended_kalman_filter(model, ys) -> FilterResult:
     T = ys.shape[0]
     if T == 0:
         raise ValueError(f"{where}: ys must have at least one row, got shape {ys.shape}")
-    nan = np.isnan(ys)
-    observed = ~np.all(nan, axis=1)
-    bad = np.flatnonzero((np.any(nan, axis=1) & observed) | np.any(np.isinf(ys), axis=1))
-    if bad.size:
-        raise ValueError(f"ys row {bad[0]} must be all finite or all NaN (missing), "
-                         f"got {np.array2string(ys[bad[0]], precision=4)}")
+    try:
+        observed, components = observation_masks(ys)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    full = components.all(axis=1)
 
     means, covs = np.empty((T, n)), np.empty((T, n, n))
     pred_means, pred_covs = np.empty((T, n)), np.empty((T, n, n))
@@ -294,7 +318,8 @@ def extended_kalman_filter(model, ys) -> FilterResult:
                 x, P = _predict(x, P, f, F, GQGt)
             pred_means[t], pred_covs[t] = x, P
             if observed[t]:
-                up = _update(x, P, ys[t], model.h, model.H, model.R, model.residual)
+                up = _update(x, P, ys[t], model.h, model.H, model.R, model.residual,
+                             None if full[t] else components[t])
                 x, P = up.mean, up.cov
                 innovations[t], innovation_covs[t] = up.innovation, up.innovation_cov
                 gains[t], step_logliks[t] = up.gain, up.loglik
@@ -302,7 +327,7 @@ def extended_kalman_filter(model, ys) -> FilterResult:
             raise ValueError(f"{where}, step t = {t}: {exc}") from exc
         means[t], covs[t] = x, P
     return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
-                        gains, step_logliks, float(step_logliks.sum()), observed)
+                        gains, step_logliks, float(step_logliks.sum()), observed, components)
 
 
 # --------------------------------------------------------------------------

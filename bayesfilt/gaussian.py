@@ -38,7 +38,11 @@ tools the course needs around it. Import it as ``bf.gaussian``::
     band = 1.96 / np.sqrt(len(z))
 
 (With missing measurements, select the observed rows first:
-``res.innovations[res.observed]``, ``res.innovation_covs[res.observed]``.)
+``res.innovations[res.observed]``, ``res.innovation_covs[res.observed]``.
+A partly-observed row has values only in its observed components
+``res.observed_components[t]``: keep the fully observed rows,
+``res.observed_components.all(axis=-1)``, or the observed block of each row,
+whose NIS has as many degrees of freedom as it has components.)
 
 Conditioning (seed 000, Theorem 10.2, eqs. (10.24)-(10.25)). Kay states
 the theorem for :math:`y` given :math:`x`; the Kalman update needs it with
@@ -130,7 +134,9 @@ def _finite_or_missing(example: str, name: str, value) -> np.ndarray:
             f"{name} must be finite, got NaN at index {index}. A filter result has NaN "
             "innovations and innovation covariances on the rows whose measurement was missing: "
             f"select the observed rows, e.g. {example}(res.innovations[res.observed], "
-            "res.innovation_covs[res.observed])")
+            "res.innovation_covs[res.observed]). A partly-observed row has values in its "
+            "observed components only (res.observed_components): keep the fully observed "
+            "rows, res.observed_components.all(axis=-1), or the observed block of each row")
     return as_array(name, a)  # an inf gets the plain message
 
 

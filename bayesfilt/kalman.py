@@ -43,18 +43,36 @@ Import it as ``bf.kalman``::
     # the covariance and gain the filter settles to
     ss = bf.kalman.steady_state(model)       # pred_cov, cov, gain
 
-A row of ``ys`` that is entirely NaN is a missing measurement: the filter
-only predicts through it.
+Missing measurements are NaN. A row of ``ys`` that is entirely NaN is a
+missing measurement: the filter only predicts through it. A row with some
+NaN components is a partial measurement (two sensors, one of which drops
+out): the update uses the observed components only, i.e. the rows of C and
+the rows and columns of R that they select, because the marginal of the
+observed components :math:`y_{t,o}` given :math:`x_t` is
+:math:`N(C_o x_t, R_{oo})` (:func:`select_observed`). The results keep
+their full shapes (see :class:`FilterResult` for what a missing component
+records)::
+
+    ys_gap = ys.copy()
+    ys_gap[50:70, 1] = np.nan                 # the second sensor drops out
+    res = bf.kalman.kalman_filter(model, ys_gap)
+    res.observed_components[50]               # array([ True, False])
 
 The whole-run filter is the two steps in a plain loop, over the same
 kernels that :func:`predict` and :func:`update` use: ``kalman_filter``
 gives bit for bit the numbers of the single steps called in a loop.
 
-Numerics. S is factorised by Cholesky and the gain is obtained by solving
-:math:`S K^T = C P` with the factor (one LAPACK ``dposv`` call), never by
-inverting S. The covariance update uses the Joseph form, which is exactly
-symmetric (every covariance is symmetrised after it is computed) and, in
-exact arithmetic, positive semi-definite for any gain. In floating point it
+Numerics. S is never inverted. In :func:`update`, :func:`kalman_filter`
+and the EKF, S is factorised by Cholesky and the gain is obtained by
+solving :math:`S K^T = C P` with that factor (one LAPACK ``dposv`` call).
+:func:`batch_kalman_filter` factorises its stack of S by Cholesky too (the
+factor gives the singularity test and the log-likelihoods), but obtains
+the gains by an LU solve of :math:`S K^T = C P` (``numpy.linalg.solve``,
+LAPACK ``dgesv``, vectorised over the stack): the two agree to rounding,
+not bit for bit. Every predicted and updated covariance is symmetrised
+after it is computed, so it is exactly symmetric. The covariance update
+uses the Joseph form, which is, in exact arithmetic, positive
+semi-definite for any gain. In floating point it
 avoids the cancellation of the textbook :math:`P - KCP`, so it stays
 positive semi-definite to rounding where that form goes indefinite, but it
 is not a proof of positive semi-definiteness under rounding (see
@@ -82,7 +100,7 @@ from scipy.linalg.lapack import dposv as _dposv
 from scipy.linalg.lapack import dtrtrs as _dtrtrs
 
 from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_square, as_vector,
-                      require_finite)
+                      observation_masks, require_finite)
 from .gaussian import LOG_2PI, _logpdf_rows
 from .models import LinearGaussian
 
@@ -91,11 +109,13 @@ __all__ = [
     "Update",
     "FilterResult",
     "SteadyState",
+    "ObservedPart",
     "predict",
     "update",
     "kalman_filter",
     "batch_kalman_filter",
     "steady_state",
+    "select_observed",
 ]
 
 class Prediction(NamedTuple):
@@ -126,10 +146,20 @@ class FilterResult(NamedTuple):
 
     means (T, n) = E[x_t | y_0..y_t]; covs (T, n, n);
     pred_means (T, n) = E[x_t | y_0..y_{t-1}] (pred_means[0] = m0); pred_covs (T, n, n);
-    innovations (T, m) and innovation_covs (T, m, m), NaN on rows whose
-    measurement is missing (see ``observed``); gains (T, n, m), zero on missing rows;
-    step_logliks (T,), 0 on missing rows; loglik: their sum, log p(y_0..y_{T-1});
-    observed (T,) bool, False where the row of ys was all NaN.
+    innovations (T, m): r_t, NaN in every component that was not observed;
+    innovation_covs (T, m, m): S_t, NaN in the rows and columns of the components
+    that were not observed (all NaN on a missing row);
+    gains (T, n, m): K_t, zero in the columns of the components that were not
+    observed (all zero on a missing row), so that x_{t|t} = x_{t|t-1} + K_t r_t
+    (with any value for the missing entries of r_t) and I - K_t C still hold
+    with the full C;
+    step_logliks (T,): log N(r_t; 0, S_t) of the observed components, 0 on missing rows;
+    loglik: their sum, log p(observed y_0..y_{T-1});
+    observed (T,) bool: True where at least one component of the row of ys was
+    measured, False where the row was all NaN (only predicted);
+    observed_components (T, m) bool: which components were measured (not NaN).
+    A row is partly observed where ``observed`` is True and
+    ``observed_components`` is not all True. (None in a result built without it.)
     """
 
     means: np.ndarray
@@ -142,6 +172,20 @@ class FilterResult(NamedTuple):
     step_logliks: np.ndarray
     loglik: float | np.ndarray
     observed: np.ndarray
+    observed_components: np.ndarray | None = None
+
+
+class ObservedPart(NamedTuple):
+    """The observed components of one measurement (see :func:`select_observed`).
+
+    mask (m,) bool; y (k,) the observed values; C (k, n) the rows of C (or of a
+    Jacobian H) they select; R (k, k) the rows and columns of R they select.
+    """
+
+    mask: np.ndarray
+    y: np.ndarray
+    C: np.ndarray
+    R: np.ndarray
 
 
 class SteadyState(NamedTuple):
@@ -239,6 +283,72 @@ def _correct(x, P, r, C, R, eye_n):
     z = _dtrtrs(L, r, lower=1)[0]
     loglik = -0.5 * float(z @ z + 2.0 * np.log(L.diagonal()).sum() + r.shape[0] * LOG_2PI)
     return x_post, P_post, K, r, S, loglik
+
+
+def _select(o, C, R):
+    """The rows of C and the block of R of the observed components o (m,) bool."""
+    # y_o = C_o x + v_o with v_o ~ N(0, R_oo): the marginal of the observed components
+    return C[o], R[np.ix_(o, o)]
+
+
+def _embed(o, K, r, S):
+    """Full-shape gain (n, m), innovation (m,) and S (m, m) from those of the components o.
+
+    The columns of K of the unobserved components are zero (they move nothing);
+    their entries of r and their rows and columns of S are NaN (there is no value).
+    """
+    m = o.shape[0]
+    K_full = np.zeros(K.shape[:-1] + (m,))
+    K_full[..., o] = K
+    r_full = np.full(r.shape[:-1] + (m,), np.nan)
+    r_full[..., o] = r
+    i = np.flatnonzero(o)
+    S_full = np.full(S.shape[:-2] + (m, m), np.nan)
+    S_full[..., i[:, None], i] = S
+    return K_full, r_full, S_full
+
+
+def select_observed(y, C, R) -> ObservedPart:
+    r"""The observed components of a measurement with missing (NaN) entries.
+
+    If :math:`y = C x + v`, :math:`v \sim N(0, R)`, the components
+    :math:`o` that were observed satisfy :math:`y_o = C_o x + v_o`,
+    :math:`v_o \sim N(0, R_{oo})`: the rows of C and the rows and columns
+    of R that :math:`o` selects (a marginal of a Gaussian keeps its
+    sub-vector and sub-block). An update with a partly-missing measurement
+    is an ordinary update with :math:`(y_o, C_o, R_{oo})`; the filters of
+    :mod:`bayesfilt` do this on every partly-NaN row. For an EKF pass the
+    Jacobian H (evaluated at the prediction) as ``C``.
+
+    Parameters
+    ----------
+    y : array_like, shape (m,)
+        Measurement, NaN where a component is missing.
+    C : array_like, shape (m, n)
+        Measurement matrix (or Jacobian H).
+    R : array_like, shape (m, m)
+        Measurement-noise covariance.
+
+    Returns
+    -------
+    ObservedPart
+        ``mask`` (m,) bool, ``y`` (k,), ``C`` (k, n) and ``R`` (k, k), with
+        k the number of observed components (0 if y is all NaN).
+
+    Raises
+    ------
+    ValueError
+        On wrong shapes, or an inf in ``y``.
+    """
+    y = as_vector("y", y, finite=False)
+    m = y.shape[0]
+    C = as_matrix("C", C, (m, None))
+    R = as_covariance("R", R, m)
+    if np.isinf(y).any():
+        raise ValueError(f"y must be finite or NaN (missing), got inf at index "
+                         f"{int(np.flatnonzero(np.isinf(y))[0])}")
+    o = ~np.isnan(y)
+    return ObservedPart(o, y[o], *_select(o, C, R))
 
 
 # --------------------------------------------------------------------------
@@ -391,23 +501,6 @@ def _check_model(model) -> None:
                         f"{type(model).__name__} (use bf.ekf for a NonlinearGaussian)")
 
 
-def _check_observations(ys: np.ndarray, axis_names: str) -> np.ndarray:
-    """Return the ``observed`` mask; ValueError for partly-missing rows or inf."""
-    if np.isfinite(ys).all():
-        return np.ones(ys.shape[:-1], dtype=bool)
-    nan = np.isnan(ys)
-    missing = nan.all(axis=-1)
-    partly = nan.any(axis=-1) & ~missing
-    if partly.any():
-        where = tuple(int(i) for i in np.argwhere(partly)[0])
-        raise ValueError(f"ys row {where if len(where) > 1 else where[0]} ({axis_names}) is "
-                         "partly NaN: a missing measurement must be an all-NaN row")
-    if np.isinf(ys).any():
-        where = tuple(int(i) for i in np.argwhere(np.isinf(ys))[0])
-        raise ValueError(f"ys must be finite or NaN (missing), got inf at index {where}")
-    return ~missing
-
-
 def _check_inputs(model: LinearGaussian, us, T: int, batch: int | None):
     """The validated inputs u_0..u_{T-2}, (T-1, p) or (M, T-1, p), or None."""
     if us is None:
@@ -453,44 +546,51 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
 
     For t = 0, ..., T-1: predict from t-1 to t (skipped at t = 0, where the
     prediction is the prior :math:`N(m_0, P_0)`), then update with
-    ``ys[t]`` unless that row is missing (all NaN), in which case the
-    filtered belief is the prediction.
+    ``ys[t]``. A row that is missing (all NaN) is not used: the filtered
+    belief is the prediction. A row with some NaN components updates with
+    its observed components o only, :math:`(y_{t,o}, C_o, R_{oo})` (see
+    :func:`select_observed`).
 
     The loop calls the same two kernels as :func:`predict` and
     :func:`update`, so its numbers are bit for bit those of the single steps
-    called in a loop; only the argument checks are done once, before the loop.
+    called in a loop (with ``update(x, P, *select_observed(y, C, R)[1:])``
+    on a partly-NaN row); only the argument checks are done once, before
+    the loop.
 
     Parameters
     ----------
     model : bayesfilt.models.LinearGaussian
     ys : array_like, shape (T, m)
-        Measurements; ``ys[0]`` measures :math:`x_0`. An all-NaN row is a
-        missing measurement. (A 1-D array is accepted when m = 1.)
+        Measurements; ``ys[0]`` measures :math:`x_0`. NaN marks a missing
+        component; an all-NaN row is a missing measurement. (A 1-D array is
+        accepted when m = 1.)
     us : array_like, shape (T - 1, p), optional
         Known inputs, row t acting from t to t + 1 (needs ``model.B``); T
-        rows are accepted and the last is unused.
+        rows are accepted and the last is unused. Inputs act on every step,
+        whether its measurement is missing or not.
 
     Returns
     -------
     FilterResult
         See :class:`FilterResult`; ``loglik`` is
         :math:`\log p(y_{\text{observed}})`, the sum of the per-step
-        :math:`\log N(r_t; 0, S_t)` over the observed rows.
+        :math:`\log N(r_t; 0, S_t)` of the observed components.
 
     Raises
     ------
     TypeError
         If ``model`` is not a :class:`~bayesfilt.models.LinearGaussian`.
     ValueError
-        On wrong shapes, a partly-NaN row of ``ys`` (named), an inf, ``us``
-        without ``model.B`` or with the wrong number of rows, or an
-        innovation covariance that is not positive definite.
+        On wrong shapes, an inf in ``ys`` (named), ``us`` without
+        ``model.B`` or with the wrong number of rows, or an innovation
+        covariance that is not positive definite (named with its time step).
     """
     _check_model(model)
     n, m = model.state_dim, model.obs_dim
     ys = _as_ys(ys, m, batched=False)
     T = ys.shape[0]
-    observed = _check_observations(ys, "time step")
+    observed, components = observation_masks(ys)
+    full = components.all(axis=1)
     us = _check_inputs(model, us, T, None)
     A, B, C, R = model.A, model.B, model.C, model.R
     GQGt = model.G @ model.Q @ model.G.T
@@ -511,27 +611,37 @@ def kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
                 x, P = _predict(x, P, A, GQGt, None if us is None else B @ us[t - 1])
             pred_means[t], pred_covs[t] = x, P
             if observed[t]:
+                if full[t]:
+                    y, C_o, R_o = ys[t], C, R
+                else:
+                    # the observed components o: y_o = C_o x + v_o, v_o ~ N(0, R_oo)
+                    o = components[t]
+                    y, (C_o, R_o) = ys[t, o], _select(o, C, R)
                 # measurement update, as update(): r_t = y_t - C x_{t|t-1}, S_t, K_t,
                 # x_{t|t} = x_{t|t-1} + K_t r_t and the Joseph-form P_{t|t}
                 try:
-                    x, P, K, r, S, loglik = _correct(x, P, ys[t] - C @ x, C, R, eye_n)
+                    x, P, K, r, S, loglik = _correct(x, P, y - C_o @ x, C_o, R_o, eye_n)
                 except ValueError as exc:
                     raise ValueError(f"kalman_filter: {exc} (at time step {t})") from None
+                if not full[t]:
+                    K, r, S = _embed(o, K, r, S)
                 gains[t], innovations[t], innovation_covs[t], step_logliks[t] = K, r, S, loglik
             means[t], covs[t] = x, P
     for what, a in (("means", means), ("covs", covs), ("pred_covs", pred_covs),
                     ("step_logliks", step_logliks)):
         require_finite("kalman_filter", what, a)
     return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
-                        gains, step_logliks, float(step_logliks.sum()), observed)
+                        gains, step_logliks, float(step_logliks.sum()), observed, components)
 
 
-def _missing_patterns(observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distinct rows of ``observed`` (D, T) and, for each sequence, the index of its row."""
-    if (observed == observed[0]).all():  # the common case, and np.unique is slow on it
-        return observed[:1], np.zeros(observed.shape[0], dtype=np.intp)
-    patterns, which = np.unique(observed, axis=0, return_inverse=True)
-    return patterns, which.reshape(-1)
+def _missing_patterns(components: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct missing-data patterns (D, T, m) of ``components`` (M, T, m), and for each
+    sequence the index of its pattern."""
+    if (components == components[0]).all():  # the common case, and np.unique is slow on it
+        return components[:1], np.zeros(components.shape[0], dtype=np.intp)
+    M = components.shape[0]
+    patterns, which = np.unique(components.reshape(M, -1), axis=0, return_inverse=True)
+    return patterns.reshape((-1,) + components.shape[1:]), which.reshape(-1)
 
 
 def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
@@ -540,18 +650,20 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     The same loop as :func:`kalman_filter`, with every step applied to all M
     sequences together: the M means move with one (M, n) x (n, n) product.
     The covariances, gains and innovation covariances do not depend on the
-    measured *values*, only on which rows are missing, so they are computed
-    once for each distinct missing-data pattern (usually one for all M).
-    This is what makes many Monte Carlo runs cheap (NEES/NIS consistency
-    checks, chapter 03). The result equals M calls of :func:`kalman_filter`
-    to rounding.
+    measured *values*, only on which components are missing, so they are
+    computed once for each distinct missing-data pattern (usually one for
+    all M). This is what makes many Monte Carlo runs cheap (NEES/NIS
+    consistency checks, chapter 03). The result equals M calls of
+    :func:`kalman_filter` to rounding (the gains come from an LU solve here,
+    from the Cholesky factor there; see the module's numerics paragraph).
 
     Parameters
     ----------
     model : bayesfilt.models.LinearGaussian
     ys : array_like, shape (M, T, m)
-        M sequences of T measurements; all-NaN rows are missing. (An (M, T)
-        array is accepted when m = 1.)
+        M sequences of T measurements; NaN marks a missing component, and
+        all-NaN rows are missing, as in :func:`kalman_filter`. Each sequence
+        may have its own pattern. (An (M, T) array is accepted when m = 1.)
     us : array_like, shape (T - 1, p) or (M, T - 1, p), optional
         Known inputs, shared by all sequences or one set per sequence
         (needs ``model.B``; T rows accepted, the last unused).
@@ -560,7 +672,8 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     -------
     FilterResult
         Every field with a leading axis M: ``means`` (M, T, n), ``covs``
-        (M, T, n, n), ..., ``loglik`` (M,), ``observed`` (M, T).
+        (M, T, n, n), ..., ``loglik`` (M,), ``observed`` (M, T),
+        ``observed_components`` (M, T, m).
         ``covs``, ``pred_covs``, ``innovation_covs`` and ``gains`` are
         read-only: sequences with the same missing-data pattern share them,
         and when all sequences do they are broadcast views that cost no
@@ -569,11 +682,11 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     _check_model(model)
     ys = _as_ys(ys, model.obs_dim, batched=True)
     M, T = ys.shape[:2]
-    observed = _check_observations(ys, "sequence, time step")
+    observed, components = observation_masks(ys)
     us = _check_inputs(model, us, T, M)
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         try:
-            result = _batch_run(model, ys, observed, us)
+            result = _batch_run(model, ys, observed, components, us)
         except ValueError as exc:
             raise ValueError(f"batch_kalman_filter: {exc}") from None
     for what in ("means", "covs", "pred_covs", "step_logliks"):
@@ -581,7 +694,7 @@ def batch_kalman_filter(model: LinearGaussian, ys, us=None) -> FilterResult:
     return result
 
 
-def _batch_run(model: LinearGaussian, ys, observed, us) -> FilterResult:
+def _batch_run(model: LinearGaussian, ys, observed, components, us) -> FilterResult:
     """:func:`batch_kalman_filter` after validation.
 
     Means, innovations and log-likelihoods have an axis of the M sequences;
@@ -594,7 +707,7 @@ def _batch_run(model: LinearGaussian, ys, observed, us) -> FilterResult:
     A, C, R = model.A, model.C, model.R
     GQGt = model.G @ model.Q @ model.G.T
     eye_n = np.eye(n)
-    patterns, which = _missing_patterns(observed)
+    patterns, which = _missing_patterns(components)
     D = patterns.shape[0]
     ys = ys.transpose(1, 0, 2)
     # B u_{t-1}: (T - 1, n) shared by all sequences, or (T - 1, M, n)
@@ -613,8 +726,9 @@ def _batch_run(model: LinearGaussian, ys, observed, us) -> FilterResult:
             # P_{t|t-1} = A P_{t-1|t-1} A^T + G Q G^T for the D covariances
             x, P = _predict(x, P, A, GQGt, None if Bus is None else Bus[t - 1])
         pred_means[t], pred_covs[t] = x, P
-        obs = patterns[:, t]  # which of the D patterns measure y_t
-        if obs.any():
+        measured = patterns[:, t]  # (D, m): which components of y_t each pattern measures
+        obs = measured.any(axis=1)  # which of the D patterns measure y_t (some of it)
+        if obs.any() and measured[obs].all():  # every pattern that measures y_t, all of it
             # S_t, K_t and the Joseph-form P_{t|t} of those patterns
             try:
                 K, S, L, P_obs = _gain_and_joseph(P[obs], C, R, eye_n)
@@ -643,6 +757,33 @@ def _batch_run(model: LinearGaussian, ys, observed, us) -> FilterResult:
                 x[seq] += (K[slot] @ r[seq, :, None])[..., 0]
                 # log N(r_t; 0, S_t)
                 step_logliks[t, seq] = _logpdf_rows(r[seq], L[slot])
+        elif obs.any():  # patterns measure different parts of y_t: a group per set o of them
+            x, P = np.array(x), np.array(P)
+            # r_t = y_t - C x_{t|t-1}   (NaN in the components that are missing)
+            r = ys[t] - x @ C.T
+            innovations[t] = r
+            sets, group = np.unique(measured[obs], axis=0, return_inverse=True)
+            measuring = np.flatnonzero(obs)
+            for g, o in enumerate(sets):
+                pats = measuring[group.reshape(-1) == g]  # the patterns that measure y_{t,o}
+                i = np.flatnonzero(o)
+                # y_o = C_o x + v_o, v_o ~ N(0, R_oo): an update with C_o and R_oo
+                C_o, R_o = _select(o, C, R)
+                try:
+                    K, S, L, P[pats] = _gain_and_joseph(P[pats], C_o, R_o, eye_n)
+                except ValueError as exc:
+                    raise ValueError(f"{exc} (at time step {t})") from None
+                # the columns of K and the block of S of the components o
+                gains[t][np.ix_(pats, np.arange(n), i)] = K
+                innovation_covs[t][np.ix_(pats, i, i)] = S
+                # the sequences of those patterns, and each one's slot among pats
+                seq = np.flatnonzero(np.isin(which, pats))
+                slot = np.searchsorted(pats, which[seq])
+                r_o = r[np.ix_(seq, i)]
+                # x_{t|t} = x_{t|t-1} + K_t r_{t,o}
+                x[seq] += (K[slot] @ r_o[..., None])[..., 0]
+                # log N(r_{t,o}; 0, S_t)
+                step_logliks[t, seq] = _logpdf_rows(r_o, L[slot])
         means[t], covs[t] = x, P
 
     means, pred_means, innovations = (a.transpose(1, 0, 2)
@@ -660,7 +801,7 @@ def _batch_run(model: LinearGaussian, ys, observed, us) -> FilterResult:
         for a in (covs, pred_covs, innovation_covs, gains):
             a.setflags(write=False)
     return FilterResult(means, covs, pred_means, pred_covs, innovations, innovation_covs,
-                        gains, step_logliks, step_logliks.sum(axis=1), observed)
+                        gains, step_logliks, step_logliks.sum(axis=1), observed, components)
 
 
 # --------------------------------------------------------------------------
@@ -670,20 +811,35 @@ def _batch_run(model: LinearGaussian, ys, observed, us) -> FilterResult:
 def steady_state(model: LinearGaussian) -> SteadyState:
     r"""Steady-state covariances and gain of the Kalman filter of a time-invariant model.
 
-    The predicted covariance :math:`P = P_{t+1|t}` converges (whatever
-    :math:`P_0`) to the stabilising solution of the discrete algebraic
-    Riccati equation
+    Returns the stabilising solution of the discrete algebraic Riccati
+    equation
 
     .. math::
 
         P = A P A^T - A P C^T (C P C^T + R)^{-1} C P A^T + G Q G^T,
 
-    provided :math:`(A, C)` is detectable and :math:`(A, G Q^{1/2})` has no
-    uncontrollable mode on the unit circle. It is solved with
-    ``scipy.linalg.solve_discrete_are(A.T, C.T, G Q G^T, R)`` (the filter's
-    Riccati equation is the control one for the transposed system). Then
-    :math:`K = P C^T (C P C^T + R)^{-1}` and the filtered covariance is
-    :math:`(I - KC) P (I - KC)^T + K R K^T`.
+    which exists when :math:`(A, C)` is detectable and
+    :math:`(A, G Q^{1/2})` has no uncontrollable mode on the unit circle.
+    It is solved with ``scipy.linalg.solve_discrete_are(A.T, C.T, G Q G^T,
+    R)`` (the filter's Riccati equation is the control one for the
+    transposed system). Then :math:`K = P C^T (C P C^T + R)^{-1}` and the
+    filtered covariance is :math:`(I - KC) P (I - KC)^T + K R K^T`.
+
+    When the filter's predicted covariance :math:`P_{t+1|t}` converges to
+    it (with :math:`(A, C)` detectable and R positive definite):
+
+    * from every :math:`P_0 \succ 0` (positive definite);
+    * from every :math:`P_0 \succeq 0` (positive semi-definite, singular
+      included) when, in addition, :math:`(A, G Q^{1/2})` is stabilisable.
+
+    Not "whatever :math:`P_0`": a singular :math:`P_0` can leave an unstable
+    mode that the noise never excites at zero variance. With
+    ``A = [[2]], C = [[1]], Q = [[0]], R = [[1]]``, this function returns
+    ``pred_cov = [[3]]`` (the stabilising solution of :math:`P = 4P/(P + 1)`),
+    but from ``P0 = [[0]]`` the filter stays at :math:`P_t = 0` for ever
+    (:math:`0` is the other solution, not stabilising: with :math:`K = 0`
+    the error dynamics :math:`A (I - KC) = 2` are unstable). From every
+    ``P0 > 0`` it converges to 3.
 
     Parameters
     ----------

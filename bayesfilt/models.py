@@ -30,7 +30,8 @@ and a particle filter (chapters 05-06) only needs
 * ``model.sample_transition(rng, xs, u=None, t=0)``: one draw of
   :math:`x_{t+1}` for each row of ``xs`` (N, n), all particles at once;
 * ``model.measurement_logpdf(y, xs)``: :math:`\log p(y \mid x)` for each row,
-  shape (N,);
+  shape (N,); with ``observed=mask``, :math:`\log p(y_o \mid x)` of the
+  observed components o alone (a partly-missing measurement);
 * ``model.transition_logpdf(x_next, xs, u=None, t=0)``:
   :math:`\log p(x_{t+1} \mid x_t)` where the transition has a density
   (needed by a proposal other than the prior).
@@ -205,19 +206,41 @@ class _ModelBase:
         out = self._measurement_mean(batch) + v
         return out[0] if single else out
 
-    def measurement_logpdf(self, y, xs) -> np.ndarray:
+    def measurement_logpdf(self, y, xs, observed=None) -> np.ndarray:
         """:math:`\\log p(y \\mid x)` for one measurement and every row of ``xs``.
+
+        With ``observed``, the density of the observed components o alone,
+        :math:`\\log p(y_o \\mid x)`: the marginal of a Gaussian
+        :math:`N(h(x), R)` is :math:`N(h_o(x), R_{oo})`, the entries o of
+        :math:`h(x)` and the rows and columns o of R (what a particle filter
+        needs on a partly-missing row).
 
         Parameters
         ----------
         y : array_like, shape (m,)
+            Finite; with ``observed``, only its observed entries are read (the
+            others may be NaN).
         xs : array_like, shape (N, n) or (n,)
+        observed : array_like of bool, shape (m,), optional
+            Which components of ``y`` were observed; None means all. None
+            observed gives 0 (the density of no measurement is 1).
 
         Returns
         -------
         ndarray, shape (N,), or float for a single state.
-            Uses ``self.residual`` so that an angle is compared modulo 2 pi.
+            Uses ``self.residual`` so that an angle is compared modulo 2 pi
+            (with ``observed``, the missing entries of ``y`` are replaced by
+            their prediction before it is called, so it must act component by
+            component).
+
+        Raises
+        ------
+        ValueError
+            On wrong shapes, a non-finite observed entry of ``y``, or a
+            singular R (or :math:`R_{oo}`): then p(y | x) has no density.
         """
+        if observed is not None:
+            return self._marginal_logpdf(y, xs, observed)
         y = as_vector("y", y, self.obs_dim)
         batch, single = _as_states("xs", xs, self.state_dim)
         residuals = self.residual(y[None, :], self._measurement_mean(batch))
@@ -225,6 +248,30 @@ class _ModelBase:
             _cholesky("R", self.R)  # raises: a singular R gives p(y | x) no density
         # log N(r; 0, R) row by row, with the factor of R and its inverse held by the model
         out = _logpdf_rows(residuals, self._R_cholesky, self._R_cholesky_inv)
+        return float(out[0]) if single else out
+
+    def _marginal_logpdf(self, y, xs, observed) -> np.ndarray:
+        """:meth:`measurement_logpdf` of the observed components ``observed`` only."""
+        m = self.obs_dim
+        o = np.asarray(observed)
+        if o.dtype != bool or o.shape != (m,):
+            raise ValueError(f"observed must be a boolean mask of shape ({m},), got "
+                             f"{o.dtype} of shape {o.shape}")
+        y = as_vector("y", y, m, finite=False)
+        if not np.all(np.isfinite(y[o])):
+            j = int(np.flatnonzero(o & ~np.isfinite(y))[0])
+            raise ValueError(f"y must be finite in the observed components, got y[{j}] = {y[j]}")
+        batch, single = _as_states("xs", xs, self.state_dim)
+        if o.all():
+            return self.measurement_logpdf(y, xs)
+        if not o.any():
+            return 0.0 if single else np.zeros(batch.shape[0])
+        y_pred = self._measurement_mean(batch)
+        # a missing entry is given its prediction (residual 0 there), then dropped
+        residuals = self.residual(np.where(o, y, y_pred), y_pred)[:, o]
+        # log N(r_o; 0, R_oo), with the Cholesky factor of R_oo
+        L = _cholesky("R_oo (the block of R of the observed components)", self.R[np.ix_(o, o)])
+        out = _logpdf_rows(residuals, L)
         return float(out[0]) if single else out
 
     def transition_logpdf(self, x_next, xs, u=None, t: int = 0) -> np.ndarray:
@@ -375,8 +422,18 @@ class LinearGaussian(_ModelBase):
     position_names : tuple of two str, optional
         Which two named components are planar positions (for plots).
 
+    Raises
+    ------
+    ValueError
+        If a matrix has the wrong shape or a non-finite entry, or Q, R or P0
+        is not symmetric positive semi-definite (the message names it).
+
+    Notes
+    -----
     Every matrix is checked on construction (shape, finiteness, symmetry and
-    positive semi-definiteness of Q, R, P0); the stored arrays are read-only.
+    positive semi-definiteness of Q, R, P0); the stored arrays are read-only,
+    so a model cannot change after it is built
+    (``dataclasses.replace(model, R=...)`` builds a new one).
     """
 
     A: np.ndarray
@@ -476,6 +533,16 @@ class NonlinearGaussian(_ModelBase):
     state_names, position_names
         As in :class:`LinearGaussian`.
 
+    Raises
+    ------
+    ValueError
+        If a matrix is invalid (as in :class:`LinearGaussian`), or a
+        function returns the wrong shape or does not act row by row.
+    TypeError
+        If a function is not callable or ``time_varying`` is not a bool.
+
+    Notes
+    -----
     The functions are called once on construction, at ``m0`` and at a batch
     of two distinct states near it, to check the shapes they return and that
     ``f`` and ``h`` act row by row on a batch.
@@ -751,14 +818,21 @@ def wrap_angle(angle):
     -------
     ndarray (same shape)
         :math:`\pi - ((\pi - a) \bmod 2\pi)`, so that :math:`\pi` maps to
-        :math:`\pi` and :math:`-\pi` to :math:`\pi`.
+        :math:`\pi` and :math:`-\pi` to :math:`\pi`. Every value lies in
+        :math:`(-\pi, \pi]`, also where rounding would give :math:`-\pi`
+        (one ulp above :math:`\pi`, the mod rounds up to :math:`2\pi`): such a
+        value is returned as :math:`\pi`, the same angle.
     """
     return _wrap(as_array("angle", angle))
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
-    # pi - ((pi - a) mod 2 pi), in (-pi, pi]
-    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+    # pi - ((pi - a) mod 2 pi), in [-pi, pi]: (pi - a) mod 2 pi can round up to 2 pi
+    # itself (for pi - a a tiny negative number, a one ulp above pi)
+    out = np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+    # -pi and pi are the same angle: keep the end of (-pi, pi] the docstring promises
+    # ([()] keeps a scalar a scalar)
+    return np.where(out <= -np.pi, np.pi, out)[()]
 
 
 def range_bearing_residual(y, y_pred) -> np.ndarray:

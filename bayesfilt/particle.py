@@ -54,7 +54,8 @@ Time convention (seed 000), as in ``bf.kalman.kalman_filter``: ``ys[0]``
 measures :math:`x_0`, so step 0 draws the particles from the prior
 :math:`N(m_0, P_0)` and weights them by :math:`p(y_0 \mid x_0)`; step
 t >= 1 moves them from t - 1 to t. An all-NaN row of ``ys`` is a missing
-measurement: the particles move, the weights stay.
+measurement: the particles move, the weights stay. A partly-NaN row weights
+the particles by the likelihood of its observed components.
 
 filterpy has no particle filter class; ``filterpy.monte_carlo`` holds
 resampling functions only (see :mod:`bayesfilt.resampling`).
@@ -62,13 +63,14 @@ resampling functions only (see :mod:`bayesfilt.resampling`).
 
 from __future__ import annotations
 
+import inspect
 import numbers
 from typing import Callable, NamedTuple
 
 import numpy as np
 
 from ._checks import (as_int, as_matrix, as_positive_float, as_rng, as_vector, check_callable,
-                      check_output)
+                      check_output, observation_masks)
 from .gaussian import _cholesky, _factor, _logpdf_rows
 from .resampling import SCHEMES
 
@@ -84,6 +86,7 @@ __all__ = [
     "optimal_proposal",
     "transition_proposal",
     "particle_filter",
+    "LOG_WEIGHTS_TOL",
 ]
 
 
@@ -132,9 +135,12 @@ class ParticleFilterResult(NamedTuple):
     at each step (before resampling), estimates of E[x_t | y_0..y_t] and Cov[...];
     ess (T,): effective sample size after the weight update;
     resampled (T,): True where the particles were resampled at the end of step t;
-    step_logliks (T,): log p(y_t | y_0..y_{t-1}) estimates, 0 on missing rows;
-    loglik: their sum, the log-evidence estimate; observed (T,): rows of ys measured;
-    history: a :class:`ParticleHistory` with ``keep_history=True``, else None.
+    step_logliks (T,): log p(y_t | y_0..y_{t-1}) estimates (of the observed components
+    on a partly-NaN row), 0 on missing rows;
+    loglik: their sum, the log-evidence estimate;
+    observed (T,): True where at least one component of the row of ys was measured;
+    history: a :class:`ParticleHistory` with ``keep_history=True``, else None;
+    observed_components (T, m): True where the component was measured (not NaN).
     """
 
     means: np.ndarray
@@ -145,6 +151,7 @@ class ParticleFilterResult(NamedTuple):
     loglik: float
     observed: np.ndarray
     history: ParticleHistory | None
+    observed_components: np.ndarray | None = None
 
 
 # --------------------------------------------------------------------------
@@ -205,7 +212,8 @@ def ess(weights) -> float:
     Parameters
     ----------
     weights : array_like, shape (N,)
-        Non-negative weights, not all zero; normalised here.
+        Finite non-negative weights, not all zero; normalised here (divided
+        by their maximum first if their sum overflows).
 
     Returns
     -------
@@ -215,12 +223,26 @@ def ess(weights) -> float:
     if np.any(w < 0):
         i = int(np.argmin(w))
         raise ValueError(f"weights must be non-negative, got weights[{i}] = {w[i]:.3g}")
-    total = w.sum()
-    if not total > 0:
-        raise ValueError("weights must not all be zero")
-    W = w / total
+    W = _normalised(w)
     # ESS = 1 / sum_i W_i^2
     return float(1.0 / np.dot(W, W))
+
+
+def _normalised(w: np.ndarray) -> np.ndarray:
+    """W = w / sum(w) for finite non-negative weights w, not all zero.
+
+    Weights whose sum overflows (each finite, e.g. two of 1e308) are first
+    divided by their maximum, as the resamplers do: W depends only on their
+    ratios. Raises ValueError if they are all zero.
+    """
+    with np.errstate(over="ignore"):  # an overflowing sum is handled below
+        total = w.sum()
+    if not total > 0:
+        raise ValueError("weights must not all be zero")
+    if total == np.inf:
+        w = w / w.max()
+        total = w.sum()
+    return w / total
 
 
 def weighted_mean_cov(particles, weights) -> tuple[np.ndarray, np.ndarray]:
@@ -230,7 +252,8 @@ def weighted_mean_cov(particles, weights) -> tuple[np.ndarray, np.ndarray]:
     ----------
     particles : array_like, shape (N, n)
     weights : array_like, shape (N,)
-        Normalised weights.
+        Finite non-negative weights, not all zero; normalised here (divided
+        by their maximum first if their sum overflows).
 
     Returns
     -------
@@ -239,11 +262,11 @@ def weighted_mean_cov(particles, weights) -> tuple[np.ndarray, np.ndarray]:
     """
     X = as_matrix("particles", particles)
     W = as_vector("weights", weights, X.shape[0])
-    if np.any(W < 0) or not W.sum() > 0:
+    if np.any(W < 0) or not W.max() > 0:
         raise ValueError("weights must be non-negative and not all zero, got min "
-                         f"{W.min():.3g}, sum {W.sum():.3g}")
+                         f"{W.min():.3g}, max {W.max():.3g}")
     # normalised here, as ess() does, so unnormalised weights cannot give a wrong answer
-    return _mean_cov(X, W / W.sum())
+    return _mean_cov(X, _normalised(W))
 
 
 def _mean_cov(X, W):
@@ -274,24 +297,49 @@ def _check_proposal(proposal) -> Proposal:
     return proposal
 
 
-def _log_likelihood(model, y, X):
-    """log p(y | x) for every particle; a likelihood below floating point is -inf, not an error."""
-    with np.errstate(over="ignore"):  # (y - h(x))^2 overflowing means weight 0, handled by the caller
-        return model.measurement_logpdf(y, X)
+def _log_likelihood(model, y, X, o=None):
+    """log p(y | x) for every particle; a likelihood below floating point is -inf, not an error.
+
+    With the mask ``o`` of a partly-missing y, log p(y_o | x) of the observed components.
+    """
+    # (y - h(x))^2 overflowing means weight 0, handled by the caller
+    with np.errstate(over="ignore"):
+        if o is None:
+            return model.measurement_logpdf(y, X)
+        return model.measurement_logpdf(y, X, observed=o)
 
 
-def _move(model, rng, X, y, t, proposal, u):
+def _check_marginal(model, what: str) -> None:
+    """A partly-missing row needs ``model.measurement_logpdf(y, xs, observed=mask)``.
+
+    ``what`` names the row, e.g. "ys row 3".
+    """
+    try:
+        takes_mask = "observed" in inspect.signature(model.measurement_logpdf).parameters
+    except (TypeError, ValueError):  # no signature to read
+        takes_mask = False
+    if not takes_mask:
+        raise ValueError(
+            f"{what} is partly NaN, but {type(model).__name__}.measurement_logpdf(y, xs) takes "
+            "no observed= mask: the likelihood of the observed components alone is unknown for "
+            "this model. Give it measurement_logpdf(y, xs, observed=None) returning "
+            "log p(y_o | x) for the components o where observed is True (the bf.models models "
+            "do), or make the row all NaN (a missing measurement)")
+
+
+def _move(model, rng, X, y, t, proposal, u, o=None):
     """Draw x_t for every particle; return (X_new, log-weight increment (N,)).
 
     ``y`` is None for a missing measurement: the particles follow the
-    transition and the weights do not change.
+    transition and the weights do not change. ``o`` is the mask of the
+    observed components of a partly-missing y (None if all are observed).
     """
     if y is None:
         return model.sample_transition(rng, X, u, t - 1), np.zeros(X.shape[0])
     if proposal is None:
         # Bootstrap: q = p(x_t | x_{t-1}), so the ratio in eq. (13) is p(y_t | x_t).
         X_new = model.sample_transition(rng, X, u, t - 1)
-        return X_new, _log_likelihood(model, y, X_new)
+        return X_new, _log_likelihood(model, y, X_new, o)
     X_new = check_output("proposal.sample", proposal.sample(rng, X, y, t), X.shape)
     log_q = np.asarray(proposal.logpdf(X_new, X, y, t), dtype=float)
     if log_q.shape != (X.shape[0],) or not np.all(np.isfinite(log_q)):
@@ -299,7 +347,7 @@ def _move(model, rng, X, y, t, proposal, u):
                          f"particles it drew, shape ({X.shape[0]},); got shape {log_q.shape}"
                          + ("" if log_q.shape != (X.shape[0],) else " with NaN or inf"))
     # log w_t = log W_{t-1} + log p(y_t | x_t) + log p(x_t | x_{t-1}) - log q(x_t | x_{t-1}, y_t)
-    return X_new, (_log_likelihood(model, y, X_new)
+    return X_new, (_log_likelihood(model, y, X_new, o)
                    + model.transition_logpdf(X_new, X, u, t - 1) - log_q)
 
 
@@ -321,9 +369,15 @@ def sis_step(model, rng, particles, log_weights, y, t: int, proposal=None, u=Non
     particles : array_like, shape (N, n)
         :math:`x_{t-1}^i`.
     log_weights : array_like, shape (N,)
-        :math:`\log W_{t-1}^i`, normalised.
+        :math:`\log W_{t-1}^i`, normalised: :math:`\log \sum_i W_{t-1}^i`
+        must be 0 within ``LOG_WEIGHTS_TOL`` (1e-8), or ``log_increment``
+        would not estimate :math:`\log p(y_t \mid y_{0:t-1})`. Normalise with
+        :func:`log_normalize`; equal weights are ``np.full(N, -np.log(N))``.
     y : array_like, shape (m,), or None
-        :math:`y_t`; None (or all NaN) for a missing measurement.
+        :math:`y_t`; None (or all NaN) for a missing measurement. A partly-NaN
+        y weights by the likelihood of its observed components,
+        ``model.measurement_logpdf(y, x, observed=~np.isnan(y))``; a
+        ``proposal`` then receives y with its NaN entries.
     t : int
         Time index of the new state (>= 1).
     proposal : Proposal, optional
@@ -337,30 +391,65 @@ def sis_step(model, rng, particles, log_weights, y, t: int, proposal=None, u=Non
     Returns
     -------
     SISStep
+
+    Raises
+    ------
+    ValueError
+        On bad arguments (each named), ``log_weights`` that are not
+        normalised, an inf in ``y``, a partly-NaN ``y`` for a model without
+        ``measurement_logpdf(..., observed=)``, or when every weight is zero.
     """
     rng = as_rng("rng", rng)
     X = as_matrix("particles", particles, (None, model.state_dim))
     lw = as_vector("log_weights", log_weights, X.shape[0], finite=False)
+    _check_normalised(lw)
     t = as_int("t", t, minimum=1)
     if proposal is not None:
         proposal = _check_proposal(proposal)
         if u is not None:
             raise ValueError("proposal: a Proposal receives no control input u; use "
                              "proposal=None (the bootstrap) with u")
+    o = None
     if y is not None:
         y = as_vector("y", y, model.obs_dim, finite=False)
+        if np.isinf(y).any():
+            raise ValueError(f"y must be finite or NaN (missing), got {y}")
         if np.all(np.isnan(y)):
             y = None
-        elif not np.all(np.isfinite(y)):
-            raise ValueError(f"y must be all finite or all NaN (missing), got {y}")
+        elif np.isnan(y).any():
+            _check_marginal(model, "y")
+            o = ~np.isnan(y)
     try:
-        X_new, log_incr = _move(model, rng, X, y, t, proposal, u)
+        X_new, log_incr = _move(model, rng, X, y, t, proposal, u, o)
         if y is None:
             return SISStep(X_new, lw, 0.0)
         log_W, log_sum = _normalize_or_explain(lw + log_incr, t, y)
     except ValueError as exc:
         raise ValueError(f"sis_step, step t = {t}: {exc}") from None
     return SISStep(X_new, log_W, log_sum)
+
+
+LOG_WEIGHTS_TOL = 1e-8
+"""How far from 0 ``sis_step`` lets :math:`\\log \\sum_i W^i` of its incoming
+log-weights be (rounding leaves a few 1e-16; an unnormalised set is off by O(1))."""
+
+
+def _check_normalised(lw: np.ndarray) -> None:
+    """ValueError naming ``log_weights`` unless log sum_i exp(lw_i) = 0 within LOG_WEIGHTS_TOL."""
+    top = lw.max()
+    if not top < np.inf:  # NaN or +inf
+        i = int(np.flatnonzero(~(lw < np.inf))[0])
+        raise ValueError(f"log_weights must be finite or -inf, got log_weights[{i}] = {lw[i]}")
+    if top == -np.inf:
+        raise ValueError("log_weights are all -inf: every weight is zero")
+    # log sum_i exp(l_i) = m + log sum_i exp(l_i - m)
+    log_sum = top + np.log(np.sum(np.exp(lw - top)))
+    if not abs(log_sum) <= LOG_WEIGHTS_TOL:
+        raise ValueError(
+            f"log_weights must be normalised, log sum_i exp(log_weights[i]) = 0 within "
+            f"{LOG_WEIGHTS_TOL:g}, got {log_sum:.6g}: pass the log_weights of the previous "
+            "step, bf.particle.log_normalize(log_w)[0], or np.full(N, -np.log(N)) for equal "
+            "weights")
 
 
 def _normalize_or_explain(lw, t, y):
@@ -435,6 +524,9 @@ def optimal_proposal(model) -> Proposal:
     is :math:`p(y_t \mid x_{t-1}^i) = N(y_t; C A x_{t-1}^i, C \tilde Q C^T + R)`,
     which does not depend on the draw :math:`x_t^i`: this proposal minimises
     the variance of the weights given the past (Doucet, Godsill & Andrieu 2000).
+    A y with NaN entries (a partly-missing measurement) is conditioned on
+    its observed components o only: :math:`C_o` and :math:`R_{oo}` in place
+    of C and R.
 
     Parameters
     ----------
@@ -461,25 +553,44 @@ def optimal_proposal(model) -> Proposal:
             f"{Qt.shape[0]}, got rank {rank}: part of the state moves deterministically. "
             f"Use proposal=None (the bootstrap), which is already optimal when C G = 0 "
             f"(the measurement does not see the noisy components directly)")
-    S = C @ Qt @ C.T + R
-    # K = Q~ C^T S^{-1}
-    K = np.linalg.solve(S, C @ Qt).T
-    # Sigma = (I - K C) Q~
-    Sigma = (np.eye(A.shape[0]) - K @ C) @ Qt
-    Sigma = 0.5 * (Sigma + Sigma.T)
-    L_Sigma, chol_Sigma = _factor(Sigma), _cholesky("Sigma", Sigma)
+    eye_n = np.eye(A.shape[0])
 
-    def mean(x_prev, y):
+    def condition(C_o, R_o):
+        """K, a factor of Sigma and its Cholesky factor, for y_o = C_o x + v_o."""
+        S = C_o @ Qt @ C_o.T + R_o
+        # K = Q~ C^T S^{-1}
+        K = np.linalg.solve(S, C_o @ Qt).T
+        # Sigma = (I - K C) Q~
+        Sigma = (eye_n - K @ C_o) @ Qt
+        Sigma = 0.5 * (Sigma + Sigma.T)
+        return K, _factor(Sigma), _cholesky("Sigma", Sigma)
+
+    # one conditioning per set of observed components, computed when first needed
+    # (a partly-NaN y conditions on its observed components: C_o, R_oo)
+    full = np.ones(C.shape[0], dtype=bool)
+    parts = {full.tobytes(): (full, C) + condition(C, R)}
+
+    def part(y):
+        o = ~np.isnan(y)
+        key = o.tobytes()
+        if key not in parts:
+            C_o, R_o = C[o], R[np.ix_(o, o)]
+            parts[key] = (o, C_o) + condition(C_o, R_o)
+        return parts[key]
+
+    def mean(x_prev, y, o, C_o, K):
         pred = x_prev @ A.T
         # mu = A x + K (y - C A x)
-        return pred + (y - pred @ C.T) @ K.T
+        return pred + (y[o] - pred @ C_o.T) @ K.T
 
     def sample(rng, x_prev, y, t):
+        o, C_o, K, L_Sigma, _ = part(y)
         z = rng.standard_normal(x_prev.shape)
-        return mean(x_prev, y) + z @ L_Sigma.T
+        return mean(x_prev, y, o, C_o, K) + z @ L_Sigma.T
 
     def logpdf(x, x_prev, y, t):
-        return _logpdf_rows(x - mean(x_prev, y), chol_Sigma)
+        o, C_o, K, _, chol_Sigma = part(y)
+        return _logpdf_rows(x - mean(x_prev, y, o, C_o, K), chol_Sigma)
 
     return Proposal(sample, logpdf)
 
@@ -501,13 +612,7 @@ def _check_ys(ys, m: int):
     if m == 1 and np.ndim(ys) == 1:
         ys = np.asarray(ys)[:, None]  # a scalar measurement per step
     ys = as_matrix("ys", ys, (None, m), finite=False)
-    nan = np.isnan(ys)
-    observed = ~np.all(nan, axis=1)
-    bad = np.flatnonzero((np.any(nan, axis=1) & observed) | np.any(np.isinf(ys), axis=1))
-    if bad.size:
-        raise ValueError(f"ys row {bad[0]} must be all finite or all NaN (missing), "
-                         f"got {np.array2string(ys[bad[0]], precision=4)}")
-    return ys, observed
+    return (ys,) + observation_masks(ys)
 
 
 def _check_us(model, us, T):
@@ -551,8 +656,15 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
         ``sample_transition``, ``measurement_logpdf``, ``transition_logpdf``);
         a time-varying model gets each step's time index.
     ys : array_like, shape (T, m)
-        Measurements; ``ys[0]`` measures :math:`x_0`. An all-NaN row is
-        missing. (A 1-D array is accepted when m = 1.)
+        Measurements; ``ys[0]`` measures :math:`x_0`. NaN marks a missing
+        component: an all-NaN row is missing (the particles move, the
+        weights stay); a partly-NaN row weights by the likelihood of its
+        observed components o, :math:`p(y_{t,o} \mid x_t)`, from
+        ``model.measurement_logpdf(y, xs, observed=o)`` (for the
+        ``bf.models`` models, the Gaussian :math:`N(h_o(x), R_{oo})`); a
+        model whose ``measurement_logpdf`` takes no ``observed`` is refused.
+        A ``proposal`` receives such a y with its NaN entries. (A 1-D array
+        is accepted when m = 1.)
     n_particles : int
         N >= 1.
     rng : numpy.random.Generator
@@ -581,8 +693,10 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     Raises
     ------
     ValueError
-        On bad arguments (each named), or when at some step every weight is
-        zero (the message names the step and the measurement).
+        On bad arguments (each named), an inf in ``ys``, a partly-NaN row
+        for a model whose likelihood cannot be marginalised, or when at some
+        step every weight is zero (the message names the step and the
+        measurement).
     """
     if not hasattr(model, "sample_transition") or not hasattr(model, "measurement_logpdf"):
         raise TypeError(f"model must be a bf.models model with the particle interface, "
@@ -598,10 +712,13 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     if roughening is not None:
         roughening = as_positive_float("roughening", roughening)
     n = model.state_dim
-    ys, observed = _check_ys(ys, model.obs_dim)
+    ys, observed, components = _check_ys(ys, model.obs_dim)
     T = ys.shape[0]
     if T == 0:
         raise ValueError(f"ys must have at least one row, got shape {ys.shape}")
+    full = components.all(axis=1)
+    if not full[observed].all():
+        _check_marginal(model, f"ys row {int(np.flatnonzero(observed & ~full)[0])}")
     us = _check_us(model, us, T)
     if proposal is not None and us is not None:
         raise ValueError("proposal: a Proposal's sample and logpdf receive no control input u, "
@@ -618,12 +735,13 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     log_W = np.full(N, -np.log(N))
     for t in range(T):
         y = ys[t] if observed[t] else None
+        o = None if full[t] else components[t]                # the observed components
         try:
             if t == 0:
-                log_incr = np.zeros(N) if y is None else _log_likelihood(model, y, X)
+                log_incr = np.zeros(N) if y is None else _log_likelihood(model, y, X, o)
             else:                                              # step [2]
                 X, log_incr = _move(model, rng, X, y, t, proposal,
-                                    None if us is None else us[t - 1])
+                                    None if us is None else us[t - 1], o)
             if y is not None:                                  # step [3]
                 log_W, step_logliks[t] = _normalize_or_explain(log_W + log_incr, t, y)
         except ValueError as exc:
@@ -648,4 +766,4 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
             parents = np.arange(N)
     history = ParticleHistory(hist_X, hist_W, hist_A) if keep_history else None
     return ParticleFilterResult(means, covs, ess_t, resampled, step_logliks,
-                                float(step_logliks.sum()), observed, history)
+                                float(step_logliks.sum()), observed, history, components)

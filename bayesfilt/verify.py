@@ -40,11 +40,31 @@ entries compared at once, each one is allowed
 
 so that, by the union bound, a correct result fails with probability below
 :math:`\alpha` whatever the seed (:func:`z_limit`; :math:`z_1 = 3.9`,
-:math:`z_{100} = 5.0`). The standard error is that of a normal approximation
-(central limit theorem), which is accurate for the sample sizes the chapters
-use (thousands of draws; an entry whose exact SE is zero, such as the
-frequency of an impossible cell, must match exactly). A wrong derivation is
+:math:`z_{100} = 5.0`). For :func:`mc_mean` and :func:`mc_frequencies` the
+standard error is that of a normal approximation (central limit theorem),
+accurate for the sample sizes the chapters use (thousands of draws, no
+category expected less than a few times; an entry whose exact SE is zero,
+such as the frequency of an impossible cell, must match exactly).
+:func:`mc_moments` needs no approximation: for Gaussian draws its limits are
+exact quantiles or proven bounds (its notes). A wrong derivation is
 typically off by many SE and fails.
+
+Where the normal approximation is not good enough (skewed variables, such as
+importance weights or squared deviations, whose sample means have heavier
+tails than a normal's at :math:`z_k`), a bounded variable has limits that hold
+for every sample size: **Bernstein's inequality** (:func:`bernstein_limits`,
+:func:`mc_bounded`). For the mean :math:`\bar h` of :math:`n` independent
+draws of a variable with mean :math:`\mu`, standard deviation :math:`\sigma`
+and :math:`h - \mu \le b`,
+
+.. math:: P(\bar h - \mu \ge \varepsilon) \le
+   \exp\!\Big(-\frac{n \varepsilon^2}{2\sigma^2 + 2 b \varepsilon / 3}\Big),
+
+so with :math:`L = \log(2k/\alpha)` each side's limit is
+:math:`\varepsilon(b) = \frac{bL}{3n} + \sqrt{(\frac{bL}{3n})^2 + \frac{2\sigma^2 L}{n}}`
+and ``k`` comparisons fail together with probability below :math:`\alpha`,
+for any :math:`n` and without an approximation. The limits are wider than the
+normal ones: that is their price.
 """
 
 from __future__ import annotations
@@ -55,7 +75,7 @@ from statistics import NormalDist
 import numpy as np
 
 __all__ = ["z_limit", "agree", "within", "mean_se", "mc_mean", "mc_moments", "mc_frequencies",
-           "together", "report", "forget"]
+           "bernstein_limits", "mc_bounded", "together", "report", "forget"]
 
 ALPHA = 1e-4
 """Largest probability that a Monte Carlo check fails on a correct result."""
@@ -307,6 +327,28 @@ def mc_mean(label: str, values, expected) -> None:
     _report(label, _in_se(label, mean - expected, se), k, z, "a sample mean")
 
 
+def _covariance_limits(cov: np.ndarray, M: int, t: float):
+    r"""Limits (low, high) on ``S - cov`` for the sample covariance S of M Gaussian draws.
+
+    ``(M - 1) (S_ij - P_ij)`` is a sum Q of ``M - 1`` independent terms
+    :math:`\lambda_+ (g^2 - 1) + \lambda_- (h^2 - 1)`, g and h standard normal,
+    :math:`\lambda_\pm = (P_{ij} \pm \sqrt{P_{ii} P_{jj}})/2` (the eigenvalues of
+    A P for :math:`A = (e_i e_j^T + e_j e_i^T)/2`). Each term's log moment
+    generating function is at most :math:`s^2 \lambda^2 / (1 - 2 s \lambda_+)`, so
+    (Laurent & Massart 2000, Lemma 1, whose proof covers coefficients of both
+    signs) :math:`P(Q \ge 2\|a\|\sqrt t + 2\lambda_+ t) \le e^{-t}` and
+    :math:`P(Q \le -2\|a\|\sqrt t - 2|\lambda_-| t) \le e^{-t}`, with
+    :math:`\|a\|^2 = (M - 1)(\lambda_+^2 + \lambda_-^2)`.
+    """
+    n = M - 1
+    diag = np.diag(cov)
+    root = np.sqrt(np.outer(diag, diag))
+    plus, minus = (cov + root) / 2, np.abs(cov - root) / 2   # lambda_+ >= 0, |lambda_-|
+    norm = np.sqrt(n * (plus**2 + minus**2))                  # ||a||
+    # Q >= 2 ||a|| sqrt(t) + 2 lambda_+ t, Q <= -2 ||a|| sqrt(t) - 2 |lambda_-| t: each e^{-t}
+    return -(2 * norm * np.sqrt(t) + 2 * minus * t) / n, (2 * norm * np.sqrt(t) + 2 * plus * t) / n
+
+
 def mc_moments(label: str, draws, mean, cov) -> None:
     r"""Check the sample mean and covariance of Gaussian draws against theory.
 
@@ -315,34 +357,164 @@ def mc_moments(label: str, draws, mean, cov) -> None:
     label : str
         What is compared.
     draws : array_like, shape (M, d)
-        ``M`` independent draws.
+        ``M`` independent draws of :math:`N(m, P)`.
     mean : array_like, shape (d,)
-        The exact mean.
+        The exact mean m.
     cov : array_like, shape (d, d)
         The exact covariance :math:`P`.
 
     Notes
     -----
-    The SE of the sample mean's entry ``i`` is :math:`\sqrt{P_{ii}/M}`; that of
-    the sample covariance's entry ``(i, j)`` is
-    :math:`\sqrt{(P_{ii} P_{jj} + P_{ij}^2)/M}` (exact for Gaussian draws).
-    The limit is :func:`z_limit` of ``d + d (d + 1) / 2`` entries.
+    The ``k = d + d (d + 1) / 2`` entries (means and the upper triangle of
+    the sample covariance, ``np.cov``'s, with ``M - 1``) share the false-alarm
+    probability :data:`ALPHA` by the union bound, ``ALPHA / (2k)`` on each
+    side of each entry, and every limit is exact or a proven bound for
+    Gaussian draws, with no normal approximation:
+
+    * a sample mean is exactly :math:`N(m_i, P_{ii}/M)`: its limit is
+      :func:`z_limit` of ``k`` entries standard errors;
+    * a sample variance is a scaled chi-square, :math:`P_{ii}\chi^2_{M-1}/(M-1)`,
+      whose upper tail is heavier than a normal's: its limits are the exact
+      chi-square quantiles;
+    * an off-diagonal sample covariance has chi-square-like tails too: its
+      limits are Laurent & Massart's (2000) bounds for sums of
+      :math:`\lambda(g^2 - 1)` (:func:`_covariance_limits`), a little wider
+      (about 5 SE where a normal would allow 4.4 to 4.6).
+
+    The recorded detail gives the largest deviation in standard errors,
+    :math:`\sqrt{P_{ii}/M}` for a mean and :math:`\sqrt{(P_{ii}P_{jj} + P_{ij}^2)/(M-1)}`
+    for a covariance entry (exact for Gaussian draws), and the limits.
     """
     draws = np.asarray(draws, dtype=float)
     if draws.ndim != 2:
         raise ValueError(f"draws: expected shape (M, d), got {draws.shape}")
     M, d = draws.shape
+    if M < 3:
+        raise ValueError(f"draws: expected at least 3 draws, got {M}")
     mean = np.asarray(mean, dtype=float)
     cov = np.asarray(cov, dtype=float)
     if mean.shape != (d,) or cov.shape != (d, d):
-        raise ValueError(f"mean, cov: expected shapes ({d},) and ({d}, {d}) for draws of shape {draws.shape}, "
-                         f"got {mean.shape} and {cov.shape}")
+        raise ValueError(f"mean, cov: expected shapes ({d},) and ({d}, {d}) for draws of shape "
+                         f"{draws.shape}, got {mean.shape} and {cov.shape}")
     diag = np.diag(cov)
     iu = np.triu_indices(d)
-    gaps = np.concatenate([draws.mean(axis=0) - mean, (np.atleast_2d(np.cov(draws.T)) - cov)[iu]])
-    ses = np.concatenate([np.sqrt(diag / M), np.sqrt((np.outer(diag, diag) + cov**2) / M)[iu]])
     k = d + len(iu[0])
-    _report(label, _in_se(label, gaps, ses), k, z_limit(k), "a sample mean or covariance entry")
+    z = z_limit(k)
+    gap_m = draws.mean(axis=0) - mean
+    gap_c = (np.atleast_2d(np.cov(draws.T)) - cov)[iu]
+    se_m = np.sqrt(diag / M)
+    se_c = np.sqrt((np.outer(diag, diag) + cov**2) / (M - 1))[iu]
+    low, high = _covariance_limits(cov, M, np.log(2 * k / ALPHA))
+    # a variance entry: (M - 1) S_ii / P_ii is chi-square with M - 1 degrees of freedom, so its
+    # limits are exact quantiles (the bound above is for the off-diagonal entries)
+    from scipy.stats import chi2
+    q_low, q_high = chi2.ppf(ALPHA / (2 * k), M - 1), chi2.isf(ALPHA / (2 * k), M - 1)
+    i = np.arange(d)
+    low[i, i], high[i, i] = diag * (q_low / (M - 1) - 1), diag * (q_high / (M - 1) - 1)
+    low, high = low[iu], high[iu]
+    if np.isnan(gap_m).any() or np.isnan(gap_c).any():
+        raise AssertionError(f"{label}: an estimate is NaN")
+    worst = _in_se(label, np.concatenate([gap_m, gap_c]), np.concatenate([se_m, se_c]))
+    exact = se_c == 0                 # a zero-variance entry: its sample covariance is exact
+    bad_m = np.abs(gap_m) > z * se_m
+    bad_c = ~exact & ((gap_c < low) | (gap_c > high))
+    if bad_m.any() or bad_c.any():
+        what = "a sample mean" if bad_m.any() else "a sample covariance entry"
+        raise AssertionError(f"{label}: {what} is beyond its limit ({worst:.1f} standard errors "
+                             f"from the exact value); a correct result goes beyond it with "
+                             f"probability < {ALPHA:.0e}")
+    c_lim = np.where(exact, np.nan, np.maximum(high, -low) / np.where(exact, 1.0, se_c))
+    _passed(label, f"within {worst:.1f} SE of the exact value (limits {z:.1f} SE for a mean, "
+                   f"up to {np.nanmax(c_lim, initial=z):.1f} SE for a covariance; {k} entries)")
+
+
+def bernstein_limits(values, probs, n: int, k: int = 1, alpha: float = ALPHA):
+    r"""Limits for the mean of ``n`` draws of a bounded variable, minus its exact mean.
+
+    Parameters
+    ----------
+    values : array_like, shape (K,)
+        The values h the variable takes (a discrete support, or a fine
+        quadrature grid of a continuous variable).
+    probs : array_like, shape (K,)
+        Their probabilities (a probability mass function, or the density times
+        the grid's cell width); they must sum to 1 within 1e-6 and are
+        normalised.
+    n : int
+        Number of independent draws averaged.
+    k : int
+        Number of comparisons made at once (union bound).
+    alpha : float
+        Largest false-alarm probability of the ``k`` comparisons together.
+
+    Returns
+    -------
+    low, high : float
+        A correct sample mean minus the exact mean falls below ``low`` (or above
+        ``high``) with probability below ``alpha / (2 k)``, by Bernstein's
+        inequality (module docstring), for any ``n``.
+    """
+    values = np.asarray(values, dtype=float)
+    probs = np.asarray(probs, dtype=float)
+    if values.ndim != 1 or probs.shape != values.shape:
+        raise ValueError(f"values, probs: expected two 1-D arrays of one length, got shapes "
+                         f"{values.shape} and {probs.shape}")
+    if not (np.isfinite(values).all() and np.isfinite(probs).all()) or (probs < 0).any():
+        raise ValueError("values, probs: expected finite values and non-negative probabilities")
+    if abs(probs.sum() - 1.0) > 1e-6:
+        raise ValueError(f"probs: expected probabilities summing to 1 (within 1e-6), got a "
+                         f"sum of {probs.sum():.8g}")
+    if int(n) != n or n < 1:
+        raise ValueError(f"n: expected a positive integer (draws averaged), got {n!r}")
+    if int(k) != k or k < 1:
+        raise ValueError(f"k: expected a positive integer (comparisons), got {k!r}")
+    probs = probs / probs.sum()
+    support = probs > 0
+    mean = float(probs @ values)
+    sd = float(np.sqrt(probs @ (values - mean) ** 2))
+    L = np.log(2 * k / alpha)
+
+    def eps(b):
+        # epsilon(b) = b L / (3 n) + sqrt((b L / (3 n))^2 + 2 sigma^2 L / n)
+        return b * L / (3 * n) + np.sqrt((b * L / (3 * n)) ** 2 + 2 * sd**2 * L / n)
+
+    return (-float(eps(mean - values[support].min())),
+            float(eps(values[support].max() - mean)))
+
+
+def mc_bounded(label: str, draws, values, probs, k: int = 1) -> None:
+    r"""Check the mean of draws of a bounded variable by Bernstein's inequality.
+
+    Parameters
+    ----------
+    label : str
+        What is compared.
+    draws : array_like, shape (n,)
+        ``n`` independent draws of the variable.
+    values, probs : array_like, shape (K,)
+        The values it can take and their probabilities (or a quadrature grid):
+        see :func:`bernstein_limits`; the exact mean is ``probs @ values``.
+    k : int
+        Number of comparisons made at once, for the union bound (this check
+        counts as one of them).
+
+    Notes
+    -----
+    No normal approximation: a correct result fails with probability below
+    ``ALPHA / k`` for any number of draws (module docstring).
+    """
+    draws = np.asarray(draws, dtype=float)
+    if draws.ndim != 1 or draws.size < 1:
+        raise ValueError(f"draws: expected a 1-D array of draws, got shape {draws.shape}")
+    low, high = bernstein_limits(values, probs, draws.size, k)
+    probs = np.asarray(probs, dtype=float)
+    gap = float(draws.mean() - (probs / probs.sum()) @ np.asarray(values, dtype=float))
+    if np.isnan(gap) or not low <= gap <= high:
+        raise AssertionError(f"{label}: the sample mean is {gap:+.4g} from the exact mean, outside "
+                             f"Bernstein's limits [{low:.4g}, {high:.4g}]; a correct result falls "
+                             f"outside with probability < {ALPHA / k:.0e}")
+    _passed(label, f"{gap:+.3g} from the exact mean, inside Bernstein's limits "
+                   f"[{low:.3g}, {high:.3g}] ({k} comparisons)")
 
 
 def mc_frequencies(label: str, draws, probs) -> None:

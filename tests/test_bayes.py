@@ -363,3 +363,19 @@ def test_grid_filter_never_returns_nan_and_checks_edges_on_missing_rows():
     with pytest.raises(ValueError, match="step t = 0: the belief has probability"):
         bf.bayes.grid_filter(_scalar_linear_model(m0=[0.0], P0=[[1.0]]), np.array([np.nan]),
                              np.linspace(-1, 1, 41))
+
+
+def test_grid_filter_on_partly_missing_rows_equals_the_kalman_filter():
+    """Two correlated sensors of a scalar state, one or the other missing on some rows."""
+    model = _scalar_linear_model(C=[[1.0], [0.5]], R=[[0.3, 0.1], [0.1, 0.4]])
+    xs, ys = bf.models.simulate(model, 20, np.random.default_rng(4))
+    ys[[2, 5, 9], 0] = np.nan
+    ys[[3, 12], 1] = np.nan
+    ys[15] = np.nan
+    res = bf.bayes.grid_filter(model, ys, np.linspace(-15, 15, 1201))
+    kf = bf.kalman.kalman_filter(model, ys)
+    np.testing.assert_allclose(res.means, kf.means[:, 0], atol=2e-3)
+    np.testing.assert_allclose(res.variances, kf.covs[:, 0, 0], rtol=5e-3)
+    assert res.loglik == pytest.approx(kf.loglik, abs=1e-2)
+    with pytest.raises(ValueError, match="ys must be finite or NaN"):
+        bf.bayes.grid_filter(model, np.array([[np.inf, 0.0]]), np.linspace(-15, 15, 101))

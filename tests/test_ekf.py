@@ -354,9 +354,10 @@ def test_filter_bad_inputs():
         bf.ekf.extended_kalman_filter(bf.models.damped_particle(), np.zeros((3, 2)))
     with pytest.raises(ValueError, match=r"ys must have shape \(\?, 2\), got shape \(3, 3\)"):
         bf.ekf.extended_kalman_filter(model, np.zeros((3, 3)))
-    with pytest.raises(ValueError, match="ys row 1 must be all finite or all NaN"):
-        bf.ekf.extended_kalman_filter(model, np.array([[0.0, 0.0], [np.nan, 0.0]]))
-    with pytest.raises(ValueError, match="ys row 0"):
+    with pytest.raises(ValueError, match=r"extended_kalman_filter: ys must be finite or NaN "
+                                         r"\(missing\), got inf at index \(1, 1\)"):
+        bf.ekf.extended_kalman_filter(model, np.array([[0.0, 0.0], [np.nan, -np.inf]]))
+    with pytest.raises(ValueError, match=r"got inf at index \(0, 0\)"):
         bf.ekf.extended_kalman_filter(model, np.array([[np.inf, 0.0]]))
     with pytest.raises(ValueError, match="ys must (have at least one row|not be empty)"):
         bf.ekf.extended_kalman_filter(model, np.zeros((0, 2)))
@@ -402,3 +403,166 @@ def test_scalar_measurements_accepted_as_a_vector_and_bad_steps_named():
                                bf.ekf.extended_kalman_filter(model, ys[:, None]).means)
     with pytest.raises(TypeError, match="step must be an array of real numbers"):
         bf.ekf.numerical_jacobian(np.sin, [0.0], step="a")
+
+
+# --------------------------------------------------------------------------
+# A hand-written EKF loop: time-varying models and partly-missing rows
+# --------------------------------------------------------------------------
+
+def hand_ekf(model, ys, f, F, residual=np.subtract):
+    """The EKF written out with no bayesfilt code: the step into t uses f(., t - 1) and
+    F(., t - 1) (the index of the state it starts from), and a row's missing components
+    are deleted by hand (entries of h, rows of H, rows and columns of R). Textbook
+    update: explicit inverse and (I - K H) P."""
+    n, m = model.state_dim, model.obs_dim
+    T = len(ys)
+    GQG = model.G @ model.Q @ model.G.T
+    out = {"means": np.zeros((T, n)), "covs": np.zeros((T, n, n)),
+           "pred_means": np.zeros((T, n)), "pred_covs": np.zeros((T, n, n)),
+           "innovations": np.full((T, m), np.nan), "innovation_covs": np.full((T, m, m), np.nan),
+           "gains": np.zeros((T, n, m)), "step_logliks": np.zeros(T)}
+    x, P = model.m0.copy(), model.P0.copy()
+    for t in range(T):
+        if t > 0:
+            Ft = F(x, t - 1)
+            x = f(x, t - 1)
+            P = Ft @ P @ Ft.T + GQG
+        out["pred_means"][t], out["pred_covs"][t] = x, P
+        keep = [j for j in range(m) if not np.isnan(ys[t][j])]
+        if keep:
+            y_pred = model.h(x)
+            y_full = np.where(np.isnan(ys[t]), y_pred, ys[t])
+            r = residual(y_full, y_pred)[keep]
+            Hk = model.H(x)[keep, :]
+            S = Hk @ P @ Hk.T + model.R[np.ix_(keep, keep)]
+            K = P @ Hk.T @ np.linalg.inv(S)
+            out["step_logliks"][t] = -0.5 * (r @ np.linalg.solve(S, r)
+                                             + np.log(np.linalg.det(2 * np.pi * S)))
+            x = x + K @ r
+            P = (np.eye(n) - K @ Hk) @ P
+            for a, j in enumerate(keep):
+                out["innovations"][t, j] = r[a]
+                out["gains"][t, :, j] = K[:, a]
+                for b, k in enumerate(keep):
+                    out["innovation_covs"][t, j, k] = S[a, b]
+        out["means"][t], out["covs"][t] = x, P
+    return out
+
+
+def _assert_matches(res, ref, rtol=1e-8, atol=1e-9, what=""):
+    for key, want in ref.items():
+        got = np.asarray(getattr(res, key))
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(want), err_msg=f"{what} {key}")
+        np.testing.assert_allclose(got, want, rtol=rtol, atol=atol, equal_nan=True,
+                                   err_msg=f"{what} {key}")
+
+
+def rotating_model():
+    """A time-varying model whose f AND F depend on t: x_{t+1} = Rot(0.3 t) x + 0.2 sin(x),
+    measured by (x_0, x_1^2 / 4, x_0 x_1 / 2)."""
+    def rot(t):
+        c, s = np.cos(0.3 * t), np.sin(0.3 * t)
+        return np.array([[c, -s], [s, c]])
+
+    def f(x, t):
+        x = np.asarray(x, float)
+        return x @ (0.97 * rot(t)).T + 0.2 * np.sin(x)
+
+    def F(x, t):
+        return 0.97 * rot(t) + 0.2 * np.diag(np.cos(x))
+
+    def h(x):
+        x = np.asarray(x, float)
+        return np.stack([x[..., 0], x[..., 1] ** 2 / 4, x[..., 0] * x[..., 1] / 2], -1)
+
+    def H(x):
+        return np.array([[1.0, 0.0], [0.0, x[1] / 2], [x[1] / 2, x[0] / 2]])
+
+    return bf.models.NonlinearGaussian(f=f, F=F, h=h, H=H, Q=0.05 * np.eye(2),
+                                       R=np.diag([0.3, 0.2, 0.25]), m0=np.array([1.0, 2.0]),
+                                       P0=0.5 * np.eye(2), time_varying=True)
+
+
+def test_time_varying_ekf_equals_a_hand_loop_that_steps_into_t_with_f_t_minus_1():
+    model = rotating_model()
+    ys = bf.models.simulate(model, 30, np.random.default_rng(5)).ys
+    _assert_matches(bf.ekf.extended_kalman_filter(model, ys), hand_ekf(model, ys, model.f, model.F))
+    # UNGM, whose cosine carries the time index: the same
+    ungm = bf.models.ungm()
+    ys = bf.models.simulate(ungm, 30, np.random.default_rng(6)).ys
+    _assert_matches(bf.ekf.extended_kalman_filter(ungm, ys), hand_ekf(ungm, ys, ungm.f, ungm.F))
+
+
+def test_partly_missing_rows_against_a_hand_loop_that_deletes_them():
+    rng = np.random.default_rng(7)
+    model = rotating_model()
+    ys = bf.models.simulate(model, 40, rng).ys
+    ys[rng.random(ys.shape) < 0.3] = np.nan
+    ys[[4, 20]] = np.nan
+    assert (np.isnan(ys).any(axis=1) & ~np.isnan(ys).all(axis=1)).sum() >= 10
+    res = bf.ekf.extended_kalman_filter(model, ys)
+    _assert_matches(res, hand_ekf(model, ys, model.f, model.F))
+    np.testing.assert_array_equal(res.observed_components, ~np.isnan(ys))
+    np.testing.assert_array_equal(res.observed, ~np.isnan(ys).all(axis=1))
+
+
+def test_partly_missing_range_or_bearing_with_the_wrapped_residual():
+    """Range-bearing, the range missing on some rows and the bearing on others, across the
+    negative x-axis where the bearing must be wrapped (independent wrap in the reference)."""
+    model = bf.models.range_bearing(m0=(-8.0, 0.5, 0.0, 0.0), prior_var=1.0)
+    rng = np.random.default_rng(8)
+    ys = bf.models.simulate(model, 30, rng, x0=[-8.0, 1.0, 0.0, -0.1]).ys
+    ys[::3, 0] = np.nan
+    ys[1::4, 1] = np.nan
+    res = bf.ekf.extended_kalman_filter(model, ys)
+    ref = hand_ekf(model, ys, lambda x, t: model.f(x), lambda x, t: model.F(x),
+                   residual=independent_bearing_residual)
+    _assert_matches(res, ref)
+    # the bearing crossed the cut at +-pi, so the wrap mattered
+    assert (np.abs(np.diff(model.h(res.means)[:, 1])) > np.pi).any()
+
+
+def test_partly_missing_ekf_on_a_linear_model_equals_the_kalman_filter():
+    rng = np.random.default_rng(9)
+    lin = bf.models.LinearGaussian(A=[[0.9, 0.3], [0.0, 0.8]], C=[[1.0, 0.0], [1.0, 1.0]],
+                                   Q=0.2 * np.eye(2), R=[[0.5, 0.1], [0.1, 0.4]],
+                                   m0=[0.0, 1.0], P0=np.eye(2))
+    ys = bf.models.simulate(lin, 30, rng).ys
+    ys[rng.random(ys.shape) < 0.3] = np.nan
+    kf = bf.kalman.kalman_filter(lin, ys)
+    ekf = bf.ekf.extended_kalman_filter(bf.models.to_nonlinear(lin), ys)
+    for key in kf._fields:
+        np.testing.assert_allclose(getattr(ekf, key), getattr(kf, key), rtol=1e-12, atol=1e-13,
+                                   err_msg=key)
+
+
+def test_ekf_predict_makes_P_exactly_symmetric_at_mixed_scales():
+    """F P F^T + G Q G^T is asymmetric by rounding here; the prediction must be P == P^T
+    bit for bit, as bf.kalman's, and so must every covariance of the filter."""
+    rng = np.random.default_rng(12)
+    n = 5
+    B = rng.standard_normal((n, n))
+    D = np.diag(np.logspace(-3, 3, n))
+    P = D @ (B @ B.T + n * np.eye(n)) @ D
+    P = 0.5 * (P + P.T)
+    J = rng.standard_normal((n, n))
+
+    def f(x):
+        return np.asarray(x) @ J.T + 0.1 * np.sin(x)
+
+    def F(x):
+        return J + 0.1 * np.diag(np.cos(x))
+
+    x = rng.standard_normal(n)
+    raw = F(x) @ P @ F(x).T + np.eye(n)
+    assert (raw != raw.T).any(), "the test needs a case where rounding breaks symmetry"
+    pred = bf.ekf.predict(x, P, f, F, np.eye(n))
+    assert np.array_equal(pred.cov, pred.cov.T)
+    np.testing.assert_allclose(pred.cov, raw, rtol=1e-12, atol=1e-12 * np.abs(raw).max())
+    model = bf.models.NonlinearGaussian(f=lambda x: 0.5 * f(x), F=lambda x: 0.5 * F(x),
+                                        h=lambda x: np.asarray(x)[..., :2],
+                                        H=lambda x: np.eye(2, n), Q=np.eye(n), R=np.eye(2),
+                                        m0=np.zeros(n), P0=P)
+    res = bf.ekf.extended_kalman_filter(model, np.ones((4, 2)))
+    for covs in (res.covs, res.pred_covs):
+        assert np.array_equal(covs, np.swapaxes(covs, 1, 2))

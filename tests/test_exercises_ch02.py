@@ -201,7 +201,10 @@ def test_exercise_2_hints_on_failures():
     wrong(ch02.exercise_2(lambda P, C, R: inv(C @ P @ C.T + R) @ P @ C.T), "test input 1",
           "check the shapes")
     wrong(ch02.exercise_2(lambda P, C, R: gain_by_inverse(P, C, R)[:, 0]), "reshape")
-    wrong(ch02.exercise_2(lambda P, C, R: None), "forget `return`")
+    def no_return(P, C, R):
+        K = gain_by_inverse(P, C, R)  # noqa: F841 - the forgotten return is the point
+    wrong(ch02.exercise_2(no_return), "forget `return`")
+    wrong(ch02.exercise_2(lambda P, C, R: None), "forget `return`")  # a lambda is never a stub
 
 
 def test_exercise_2_not_attempted_and_garbage():
@@ -289,10 +292,10 @@ def test_exercise_4_reference_by_a_plain_numpy_grid_filter():
 
 
 @pytest.mark.parametrize("agree, meaning, phrases", [
-    (1, "best linear estimate", ["t = 1", "count the steps from 1", "meaning_4 is right"]),
+    (1, "best linear estimate", ["t = 1", "count the steps from 1", "meaning_4: correct."]),
     (5, "best linear estimate", ["t = 5", "far more than", "Print"]),
-    (0, "conditional mean", ["agree_4 is right", "not the conditional mean"]),
-    (0, "neither", ["names an estimator"]),
+    (0, "conditional mean", ["agree_4: correct.", "not the right option", "means and covariances alone"]),
+    (0, "neither", ["not the right option", "means and covariances alone"]),
     (0, "kalman", ["must be one of"]),
     (12, "best linear estimate", ["not one of the steps"]),
     (0.5, "best linear estimate", ["whole number"]),
@@ -307,7 +310,7 @@ def test_exercise_4_not_attempted_and_garbage():
     not_attempted(ch02.exercise_4(None, None))
     fb = ch02.exercise_4(0, None)
     not_attempted(fb)
-    assert "agree_4 is right" in fb.message and "meaning_4 is still None" in fb.message
+    assert "agree_4: correct." in fb.message and "meaning_4 is still None" in fb.message
     not_attempted(ch02.exercise_4(None, "best linear estimate"))
     for garbage in GARBAGE:
         fb = ch02.exercise_4(garbage, garbage)
@@ -376,7 +379,7 @@ def test_exercise_5_not_attempted_and_garbage():
     not_attempted(ch02.exercise_5(not_implemented))
     wrong(ch02.exercise_5(lambda P, C, R, G, D: P @ D), "check the shapes")
     for garbage in [0.5, "correlated_gain", gain_by_inverse, lambda *a: "K",
-                    lambda P, C, R, G, D: np.full((2, 1), np.inf), lambda P, C, R, G, D: None,
+                    lambda P, C, R, G, D: np.full((2, 1), np.inf), lambda P, C, R, G, D: P[0, 0] and None,
                     lambda P, C, R, G, D: G @ D @ G.T]:
         fb = ch02.exercise_5(garbage)
         assert fb.status == INCORRECT, fb

@@ -253,7 +253,8 @@ def test_ex1_an_input_changed_in_place_is_not_yet():
 def test_ex1_not_attempted_and_garbage():
     not_attempted(ch04.exercise_1(None))
     not_attempted(ch04.exercise_1(not_implemented))
-    wrong(ch04.exercise_1(lambda x: None), "forget `return`")
+    wrong(ch04.exercise_1(lambda x: len(x) and None), "forget `return`")
+    wrong(ch04.exercise_1(lambda x: None), "forget `return`")         # a lambda is never a stub
     wrong(ch04.exercise_1(lambda x: x[7]), "IndexError", "shape (4,)")
     wrong(ch04.exercise_1(fails_oddly), "fails on test input 1", "Odd")
     never_raises(ch04.exercise_1, BAD_FUNCTIONS + GARBAGE)
@@ -731,7 +732,7 @@ def test_ex5_diagnoses(fun, phrases):
 def test_ex5_not_attempted_and_garbage():
     not_attempted(ch04.exercise_5(None))
     not_attempted(ch04.exercise_5(not_implemented))
-    wrong(ch04.exercise_5(lambda y, p: None), "forget `return`")
+    wrong(ch04.exercise_5(lambda y, p: len(y) and None), "forget `return`")
     wrong(ch04.exercise_5(fails_oddly), "fails on test input 1", "Odd")
     never_raises(ch04.exercise_5, BAD_FUNCTIONS + GARBAGE)
 

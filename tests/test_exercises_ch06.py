@@ -197,7 +197,7 @@ def test_ex1_an_unrecognised_mistake_names_the_point():
 def test_ex1_not_attempted_and_never_raises():
     assert ch06.exercise_1(None).status == NOT_ATTEMPTED
     assert ch06.exercise_1(_not_written).status == NOT_ATTEMPTED
-    _assert_wrong(ch06.exercise_1(lambda w, u: None), "forget `return`")
+    _assert_wrong(ch06.exercise_1(lambda w, u: len(w) and None), "forget `return`")
     _assert_wrong(ch06.exercise_1(lambda w, u: w[len(w)]), "IndexError", "exactly 1")
     funs = [lambda w, u: "x", lambda w, u: [1.0, 2.0], lambda w, u: np.ones((2, 3)), lambda w, u: 1 / 0,
             lambda w, u: np.full(len(w), np.nan), lambda w: 0, lambda w, u: np.ones(len(w), bool),
@@ -478,6 +478,6 @@ def test_the_notebook_states_the_numbers_of_the_checks():
     assert ch06.THRESHOLDS_3 == (0.1, 0.5, 0.9) and ch06.N_3 == 500 and ch06.SEED_FILTERS_3 == 16
     assert ch06.K_VALUES_4 == (0.1, 0.2, 2.0) and ch06.SEED_FILTERS_4 == 28
     assert ch06.N_4 == 500
-    wrong_n = ch06.exercise_4((2.0, "conservative"), 300)
-    assert wrong_n.status == INCORRECT and "N_4 = 500" in wrong_n.message
+    wrong_n = ch06.exercise_4((2.0, "conservative"), "500")
+    assert wrong_n.status == INCORRECT and "passes N_4" in wrong_n.message
     assert (ch06.MAX_LOST_4, ch06.LOST_METRES_4, ch06.T_FROM_4) == (5, 5.0, 30)

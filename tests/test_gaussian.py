@@ -468,3 +468,24 @@ def test_squared_mahalanobis_singular_inf_matches_a_per_matrix_inverse():
     # shape errors are not turned into inf
     with pytest.raises(ValueError, match="covs must have shape"):
         bf.gaussian.squared_mahalanobis(d, P[:, :2, :2], singular="inf")
+
+
+def test_nis_of_partly_observed_rows_is_pointed_to_the_observed_components():
+    """A partly-observed row has NaN in its missing components: the message says how to
+    select, and the NIS of each row's observed block is chi-square with as many degrees of
+    freedom as observed components (checked here against the deleting formula)."""
+    model = bf.models.damped_particle()
+    ys = bf.models.simulate(model, 20, np.random.default_rng(8)).ys
+    ys[4, 1] = np.nan
+    res = bf.kalman.kalman_filter(model, ys)
+    with pytest.raises(ValueError, match=r"partly-observed row .*res\.observed_components\.all"):
+        bf.gaussian.squared_mahalanobis(res.innovations[res.observed],
+                                        res.innovation_covs[res.observed])
+    full = res.observed_components.all(axis=-1)
+    assert full.sum() == 19
+    bf.gaussian.squared_mahalanobis(res.innovations[full], res.innovation_covs[full])
+    o = res.observed_components[4]
+    nis_4 = bf.gaussian.squared_mahalanobis(res.innovations[4, o],
+                                            res.innovation_covs[4][np.ix_(o, o)])
+    r = ys[4, 0] - res.pred_means[4, 0]
+    assert nis_4 == pytest.approx(r ** 2 / (res.pred_covs[4, 0, 0] + model.R[0, 0]), rel=1e-12)

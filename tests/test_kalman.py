@@ -11,6 +11,7 @@ public predict/update called step by step (kalman_filter must equal them bit for
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -597,6 +598,25 @@ def test_steady_state_without_stabilising_solution():
         bf.kalman.steady_state(model)
 
 
+def test_steady_state_needs_a_definite_P0_when_the_noise_cannot_stabilise():
+    """The docstring's counterexample: A = 2, C = 1, Q = 0, R = 1. (A, G Q^{1/2}) is not
+    stabilisable; the Riccati equation P = 4 P / (P + 1) has the stabilising solution 3 and
+    the other solution 0. From P0 = 0 the recursion stays at 0; from any P0 > 0 it goes
+    to 3. Reference: the scalar recursion by hand."""
+    model = bf.models.LinearGaussian(A=[[2.0]], C=[[1.0]], Q=[[0.0]], R=[[1.0]], m0=[0.0],
+                                     P0=[[0.0]])
+    assert bf.kalman.steady_state(model).pred_cov[0, 0] == pytest.approx(3.0, rel=1e-10)
+    ys = np.zeros((60, 1))
+    assert (bf.kalman.kalman_filter(model, ys).pred_covs == 0.0).all()
+    for p0 in (1e-6, 1.0, 1e6):
+        p = p0
+        for _ in range(59):
+            p = 4.0 * p / (p + 1.0)   # P_{t+1|t} = A^2 P R / (P + R) + Q
+        res = bf.kalman.kalman_filter(dataclasses.replace(model, P0=[[p0]]), ys)
+        assert res.pred_covs[-1, 0, 0] == pytest.approx(p, rel=1e-9)
+        assert p == pytest.approx(3.0, rel=1e-9)
+
+
 def test_steady_state_needs_definite_R():
     model = bf.models.LinearGaussian(A=[[0.5]], C=[[1.0]], Q=[[1.0]], R=[[0.0]], m0=[0.0],
                                      P0=[[1.0]])
@@ -645,9 +665,11 @@ def test_bad_filter_arguments(particle):
         bf.kalman.kalman_filter(model, np.array([[0.0, np.inf]]))
     partly = ys.copy()
     partly[17, 1] = np.nan
-    with pytest.raises(ValueError, match="ys row 17 .* partly NaN"):
+    partly[20, 0] = -np.inf
+    with pytest.raises(ValueError, match=r"ys must be finite or NaN \(missing\), got inf at "
+                                         r"index \(20, 0\)"):
         bf.kalman.kalman_filter(model, partly)
-    with pytest.raises(ValueError, match=r"ys row \(1, 17\) .* partly NaN"):
+    with pytest.raises(ValueError, match=r"got inf at index \(1, 20, 0\)"):
         bf.kalman.batch_kalman_filter(model, np.stack([ys, partly]))
     with pytest.raises(ValueError, match=r"ys must have shape \(M, T, 2\), got shape \(60, 2\)"):
         bf.kalman.batch_kalman_filter(model, ys)
@@ -721,3 +743,315 @@ def test_overflow_is_an_error_not_nan():
         bf.kalman.kalman_filter(model, ys)
     with pytest.raises(ValueError, match="batch_kalman_filter: .* overflowed"):
         bf.kalman.batch_kalman_filter(model, ys[None])
+
+
+# --------------------------------------------------------------------------
+# Partly-missing measurements: an independent filter that deletes them
+# --------------------------------------------------------------------------
+
+def _knock_out(rng, ys, fraction=0.3, whole_rows=(3, 11)):
+    """About ``fraction`` of the components set to NaN at random, and the rows
+    ``whole_rows`` entirely (a missing measurement)."""
+    ys = np.array(ys, dtype=float)
+    ys[rng.random(ys.shape) < fraction] = np.nan
+    ys[..., list(whole_rows), :] = np.nan
+    return ys
+
+
+def deleting_filter(model, ys, us=None):
+    """The Kalman filter written out with the missing components deleted by hand.
+
+    Textbook form (explicit inverse, P - K C P), no bayesfilt code: on each row
+    the observed components o keep their rows of C and their rows and columns
+    of R, y_o ~ N(C_o x, R_oo); a row with no observed component is skipped.
+    Returns the fields of FilterResult with the documented full-shape
+    conventions: NaN innovations and S entries, zero gain columns, where missing.
+    """
+    n, m = model.state_dim, model.obs_dim
+    T = len(ys)
+    A, C, R = model.A, model.C, model.R
+    GQG = model.G @ model.Q @ model.G.T
+    out = {"means": np.zeros((T, n)), "covs": np.zeros((T, n, n)),
+           "pred_means": np.zeros((T, n)), "pred_covs": np.zeros((T, n, n)),
+           "innovations": np.full((T, m), np.nan), "innovation_covs": np.full((T, m, m), np.nan),
+           "gains": np.zeros((T, n, m)), "step_logliks": np.zeros(T)}
+    x, P = model.m0.copy(), model.P0.copy()
+    for t in range(T):
+        if t > 0:
+            x = A @ x + (0 if us is None else model.B @ us[t - 1])
+            P = A @ P @ A.T + GQG
+        out["pred_means"][t], out["pred_covs"][t] = x, P
+        keep = [j for j in range(m) if not np.isnan(ys[t][j])]
+        if keep:
+            Co, Ro, yo = C[keep, :], R[np.ix_(keep, keep)], ys[t][keep]
+            S = Co @ P @ Co.T + Ro
+            K = P @ Co.T @ np.linalg.inv(S)
+            r = yo - Co @ x
+            out["step_logliks"][t] = multivariate_normal(Co @ x, S).logpdf(yo)
+            x = x + K @ r
+            P = P - K @ Co @ P
+            for a, j in enumerate(keep):
+                out["innovations"][t, j] = r[a]
+                out["gains"][t, :, j] = K[:, a]
+                for b, k in enumerate(keep):
+                    out["innovation_covs"][t, j, k] = S[a, b]
+        out["means"][t], out["covs"][t] = x, P
+    return out
+
+
+def _assert_matches(res, ref, rtol=1e-8, atol=1e-10, what=""):
+    for key, want in ref.items():
+        got = np.asarray(getattr(res, key))
+        # the same NaN pattern, and the same numbers elsewhere
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(want), err_msg=f"{what} {key}")
+        np.testing.assert_allclose(got, want, rtol=rtol, atol=atol, equal_nan=True,
+                                   err_msg=f"{what} {key}")
+
+
+@pytest.mark.parametrize("with_inputs", [False, True])
+def test_partly_missing_rows_against_a_filter_that_deletes_them(with_inputs):
+    rng = np.random.default_rng(70 + with_inputs)
+    model = random_model(rng, 4, 3, q=2, p=2 if with_inputs else None)
+    T = 40
+    us = rng.standard_normal((T - 1, 2)) if with_inputs else None
+    ys = _knock_out(rng, bf.models.simulate(model, T, rng, us=us).ys)
+    partly = np.isnan(ys).any(axis=1) & ~np.isnan(ys).all(axis=1)
+    assert partly.sum() >= 10, "the test needs many partly-missing rows"
+    res = bf.kalman.kalman_filter(model, ys, us)
+    ref = deleting_filter(model, ys, us)
+    _assert_matches(res, ref)
+    np.testing.assert_allclose(res.loglik, ref["step_logliks"].sum(), rtol=1e-10)
+    np.testing.assert_array_equal(res.observed_components, ~np.isnan(ys))
+    np.testing.assert_array_equal(res.observed, ~np.isnan(ys).all(axis=1))
+    # an all-NaN row is a pure prediction, as before
+    np.testing.assert_array_equal(res.means[[3, 11]], res.pred_means[[3, 11]])
+
+
+def joint_gaussian_loglik(model, ys, us=None):
+    """log p(every observed component of ys), from the joint Gaussian of all of them
+    written out directly (no recursion): the stacked C x_t + v_t, observed entries kept."""
+    n, m = model.state_dim, model.obs_dim
+    T = len(ys)
+    A, GQG = model.A, model.G @ model.Q @ model.G.T
+    mean_x, cov_x = np.zeros(T * n), np.zeros((T * n, T * n))
+    # x_t = A^t x_0 + sum_{s<t} A^{t-1-s} (B u_s + G w_s)
+    Phi = [np.linalg.matrix_power(A, t) for t in range(T)]
+    x_det = model.m0.copy()
+    for t in range(T):
+        if t > 0:
+            x_det = A @ x_det + (0 if us is None else model.B @ us[t - 1])
+        mean_x[t * n:(t + 1) * n] = x_det
+        for s in range(t + 1):
+            # Cov(x_t, x_s) = A^t P0 A^s^T + sum_{k < s} A^{t-1-k} GQG A^{s-1-k}^T
+            c = Phi[t] @ model.P0 @ Phi[s].T
+            for k in range(s):
+                c = c + Phi[t - 1 - k] @ GQG @ Phi[s - 1 - k].T
+            cov_x[t * n:(t + 1) * n, s * n:(s + 1) * n] = c
+            cov_x[s * n:(s + 1) * n, t * n:(t + 1) * n] = c.T
+    keep = ~np.isnan(ys).ravel()
+    Cbig = np.kron(np.eye(T), model.C)[keep]
+    cov_y = Cbig @ cov_x @ Cbig.T + np.kron(np.eye(T), model.R)[np.ix_(keep, keep)]
+    return multivariate_normal(Cbig @ mean_x, cov_y).logpdf(ys.ravel()[keep])
+
+
+def test_partly_missing_loglik_equals_the_joint_gaussian():
+    rng = np.random.default_rng(77)
+    model = random_model(rng, 3, 3, q=2, p=1)
+    T = 9
+    us = rng.standard_normal((T - 1, 1))
+    ys = _knock_out(rng, bf.models.simulate(model, T, rng, us=us).ys, whole_rows=(4,))
+    res = bf.kalman.kalman_filter(model, ys, us)
+    np.testing.assert_allclose(res.loglik, joint_gaussian_loglik(model, ys, us), rtol=1e-9)
+    # and the brute force is no tautology: the same rows fully observed give another number
+    full = bf.models.simulate(model, T, np.random.default_rng(1), us=us).ys
+    np.testing.assert_allclose(bf.kalman.kalman_filter(model, full, us).loglik,
+                               joint_gaussian_loglik(model, full, us), rtol=1e-9)
+
+
+def test_partly_missing_rows_are_update_on_the_selected_components_bit_for_bit():
+    """kalman_filter on a partly-NaN row = update(x, P, y_o, C_o, R_oo) (select_observed)."""
+    rng = np.random.default_rng(78)
+    model = random_model(rng, 4, 3, q=4)
+    ys = _knock_out(rng, bf.models.simulate(model, 25, rng).ys)
+    res = bf.kalman.kalman_filter(model, ys)
+    x, P = model.m0, model.P0
+    for t in range(len(ys)):
+        if t > 0:
+            x, P = bf.kalman.predict(x, P, model.A, model.Q, G=model.G)
+        part = bf.kalman.select_observed(ys[t], model.C, model.R)
+        if part.mask.any():
+            step = bf.kalman.update(x, P, part.y, part.C, part.R)
+            x, P = step.mean, step.cov
+            assert np.array_equal(res.gains[t][:, part.mask], step.gain), t
+            assert np.array_equal(res.innovations[t][part.mask], step.innovation), t
+            assert res.step_logliks[t] == step.loglik, t
+        assert np.array_equal(res.means[t], x) and np.array_equal(res.covs[t], P), t
+
+
+def test_select_observed_and_its_errors():
+    C, R = np.arange(6.0).reshape(3, 2), np.array([[4.0, 1, 2], [1, 5, 3], [2, 3, 6]])
+    part = bf.kalman.select_observed([1.0, np.nan, 3.0], C, R)
+    np.testing.assert_array_equal(part.mask, [True, False, True])
+    np.testing.assert_array_equal(part.y, [1.0, 3.0])
+    np.testing.assert_array_equal(part.C, [[0.0, 1.0], [4.0, 5.0]])
+    np.testing.assert_array_equal(part.R, [[4.0, 2.0], [2.0, 6.0]])
+    assert bf.kalman.select_observed([np.nan] * 3, C, R).y.shape == (0,)
+    with pytest.raises(ValueError, match="y must be finite or NaN .* index 1"):
+        bf.kalman.select_observed([1.0, np.inf, 3.0], C, R)
+    with pytest.raises(ValueError, match=r"C must have shape \(3, \?\)"):
+        bf.kalman.select_observed([1.0, 2.0, 3.0], C[:2], R)
+
+
+def test_batch_with_partly_missing_rows_and_different_patterns():
+    """Sequences with their own random patterns (some shared, some all-NaN rows), with
+    per-sequence and shared inputs: batch = one kalman_filter per sequence, and both
+    = the deleting filter."""
+    rng = np.random.default_rng(79)
+    model = random_model(rng, 3, 3, q=2, p=1)
+    M, T = 7, 20
+    us = rng.standard_normal((M, T - 1, 1))
+    ys = np.stack([bf.models.simulate(model, T, rng, us=us[i]).ys for i in range(M)])
+    ys[:5] = _knock_out(rng, ys[:5], whole_rows=(2,))
+    ys[5][np.isnan(ys[0])] = np.nan          # sequence 5 shares sequence 0's pattern
+    # sequence 6 is fully observed
+    for u in (us, us[0]):
+        batch = _compare_batch(model, ys, u)
+        for i in (0, 3, 6):
+            ref = deleting_filter(model, ys[i], u if u.ndim == 2 else u[i])
+            _assert_matches(bf.kalman.kalman_filter(model, ys[i], u if u.ndim == 2 else u[i]),
+                            ref, what=f"sequence {i}")
+        np.testing.assert_array_equal(batch.observed_components, ~np.isnan(ys))
+        np.testing.assert_array_equal(batch.observed, ~np.isnan(ys).all(axis=2))
+    # one pattern shared by all, partly missing: the D = 1 path
+    ys_same = np.stack([bf.models.simulate(model, T, rng).ys for _ in range(3)])
+    ys_same[:, np.isnan(ys[0])] = np.nan
+    _compare_batch(model, ys_same, us[0])
+
+
+def test_missing_inputs_rows_and_inf_in_every_filter():
+    model = bf.models.damped_particle(B=bf.models.damped_particle().G)
+    rng = np.random.default_rng(80)
+    us = rng.standard_normal((29, 2))
+    ys = _knock_out(rng, bf.models.simulate(model, 30, rng, us=us).ys)
+    _assert_matches(bf.kalman.kalman_filter(model, ys, us), deleting_filter(model, ys, us))
+    bad = ys.copy()
+    bad[4, 1] = np.inf
+    for run in (lambda: bf.kalman.kalman_filter(model, bad, us),
+                lambda: bf.kalman.batch_kalman_filter(model, bad[None], us)):
+        with pytest.raises(ValueError, match="ys must be finite or NaN"):
+            run()
+
+
+# --------------------------------------------------------------------------
+# What a one-line change would break (issue 20's mutation survivors)
+# --------------------------------------------------------------------------
+
+def _mixed_scale_covariance(rng, n=5):
+    """A covariance whose entries range from about 1e-6 to 1e6: D M D with a random
+    correlation matrix M and D = diag(1e-3 .. 1e3)."""
+    B = rng.standard_normal((n, n))
+    M = B @ B.T + n * np.eye(n)
+    M /= np.sqrt(np.outer(np.diag(M), np.diag(M)))
+    D = np.diag(np.logspace(-3, 3, n))
+    P = D @ M @ D
+    return 0.5 * (P + P.T)
+
+
+def test_predict_makes_P_exactly_symmetric_at_mixed_scales():
+    """The docstring promises exact symmetry (P == P^T bit for bit), and the batch filter
+    relies on it; without the symmetrisation, rounding leaves A P A^T + G Q G^T
+    asymmetric here."""
+    rng = np.random.default_rng(90)
+    A, P = rng.standard_normal((5, 5)), _mixed_scale_covariance(rng)
+    assert 1e-7 < np.abs(P).min() and np.abs(P).max() < 1e7
+    Q = _mixed_scale_covariance(rng)
+    raw = A @ P @ A.T + Q
+    assert (raw != raw.T).any(), "the test needs a case where rounding breaks symmetry"
+    _, P_pred = bf.kalman.predict(np.zeros(5), P, A, Q)
+    assert np.array_equal(P_pred, P_pred.T)
+    np.testing.assert_allclose(P_pred, raw, rtol=1e-12, atol=1e-12 * np.abs(raw).max())
+    # the update too, and every covariance of both filters
+    C, R = rng.standard_normal((3, 5)), _mixed_scale_covariance(rng, 3)
+    step = bf.kalman.update(np.zeros(5), P_pred, np.ones(3), C, R)
+    assert np.array_equal(step.cov, step.cov.T)
+    model = bf.models.LinearGaussian(A=A / np.max(np.abs(np.linalg.eigvals(A))), C=C, Q=Q, R=R,
+                                     m0=np.zeros(5), P0=P)
+    ys = np.ones((6, 3))
+    ys[2] = np.nan
+    ys[4, 1] = np.nan
+    for res in (bf.kalman.kalman_filter(model, ys),
+                bf.kalman.batch_kalman_filter(model, np.stack([ys, ys + 1, ys[::-1]]))):
+        for covs in (res.covs, res.pred_covs):
+            assert np.array_equal(covs, np.swapaxes(covs, -1, -2))
+
+
+def test_a_huge_but_well_conditioned_S_is_accepted():
+    """The singularity test compares each squared pivot L_ii^2 with m eps S_ii: a test
+    independent of the units. With S = 1e40 + 1 (a prior variance of 1e40), the pivot
+    1e20 is far from singular; the unsquared L_ii <= m eps S_ii (1e20 <= 2e24) would
+    reject it. Reference: the scalar update in information form."""
+    step = bf.kalman.update([0.0], [[1e40]], [3.0], [[1.0]], [[1.0]])
+    assert step.mean[0] == pytest.approx(3.0, rel=1e-15)
+    assert step.cov[0, 0] == pytest.approx(1.0 / (1e-40 + 1.0), rel=1e-12)
+    model = bf.models.LinearGaussian(A=[[1.0]], C=[[1.0]], Q=[[1.0]], R=[[1.0]], m0=[0.0],
+                                     P0=[[1e40]])
+    one = bf.kalman.kalman_filter(model, np.ones((3, 1)))
+    batch = bf.kalman.batch_kalman_filter(model, np.ones((2, 3, 1)))
+    for variance in (one.covs[0, 0, 0], batch.covs[0, 0, 0, 0], batch.covs[1, 0, 0, 0]):
+        assert variance == pytest.approx(1.0 / (1e-40 + 1.0), rel=1e-12)
+
+
+def test_a_numerically_singular_S_is_rejected():
+    """S = [[1, 1], [1, 1 + eps]] (two sensors that differ by 2^-26 in one coefficient, no
+    noise): its second pivot squared is eps, below m eps S_22 = 2 eps, so S is singular at
+    the rounding level and must be refused, though Cholesky succeeds. (The unsquared
+    test, 2^-26 > 2 eps, would accept it.)"""
+    C, R = np.array([[1.0, 0.0], [1.0, 2.0 ** -26]]), np.zeros((2, 2))
+    S = C @ C.T + R
+    assert S[1, 1] == 1.0 + np.finfo(float).eps and np.linalg.cholesky(S)[1, 1] > 0
+    with pytest.raises(ValueError, match="innovation covariance S"):
+        bf.kalman.update(np.zeros(2), np.eye(2), [1.0, 1.0], C, R)
+    model = bf.models.LinearGaussian(A=np.eye(2), C=C, Q=np.eye(2), R=R, m0=np.zeros(2),
+                                     P0=np.eye(2))
+    with pytest.raises(ValueError, match="innovation covariance S .* time step 0"):
+        bf.kalman.kalman_filter(model, np.ones((2, 2)))
+    with pytest.raises(ValueError, match="innovation covariance S .* time step 0"):
+        bf.kalman.batch_kalman_filter(model, np.ones((2, 2, 2)))
+
+
+def test_the_singularity_rule_at_its_boundary():
+    """The documented rule: S is refused when a squared pivot L_ii^2 <= m eps S_ii. With
+    y = (x, x + v), var v = d, P = 1, R = diag(0, d): S = [[1, 1], [1, 1 + d]] and the
+    second squared pivot is d exactly. For m = 2: d = 2 eps is refused (2 eps <= 2 eps
+    (1 + 2 eps)), d = 4 eps accepted (4 eps > 2 eps (1 + 4 eps)); a threshold of eps
+    instead of m eps would accept the first."""
+    eps = np.finfo(float).eps
+    C = np.array([[1.0], [1.0]])
+    with pytest.raises(ValueError, match="innovation covariance S"):
+        bf.kalman.update([0.0], [[1.0]], [0.0, 0.0], C, np.diag([0.0, 2 * eps]))
+    step = bf.kalman.update([0.0], [[1.0]], [0.0, 0.0], C, np.diag([0.0, 4 * eps]))
+    # the first component measures x exactly: the posterior variance is 0 (to rounding)
+    assert abs(step.cov[0, 0]) < 1e-15
+
+
+def test_non_symmetric_gain_with_n_equal_to_m():
+    """n = m = 3, so a transposed gain K^T has the right shape: only the values can tell.
+    Reference: K = P C^T (C P C^T + R)^{-1} with an explicit inverse, and the filters
+    against the deleting (textbook) filter."""
+    rng = np.random.default_rng(91)
+    model = random_model(rng, 3, 3, q=2)
+    P, C, R = random_spd(rng, 3), model.C, model.R
+    K = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+    assert np.abs(K - K.T).max() > 0.1, "the test needs a clearly non-symmetric gain"
+    y, x = rng.standard_normal(3), rng.standard_normal(3)
+    step = bf.kalman.update(x, P, y, C, R)
+    np.testing.assert_allclose(step.gain, K, **TOL)
+    np.testing.assert_allclose(step.mean, x + K @ (y - C @ x), **TOL)
+    np.testing.assert_allclose(step.cov, P - K @ C @ P, rtol=1e-9, atol=1e-12)
+    ys = bf.models.simulate(model, 30, rng).ys
+    ref = deleting_filter(model, ys)
+    _assert_matches(bf.kalman.kalman_filter(model, ys), ref)
+    batch = bf.kalman.batch_kalman_filter(model, np.stack([ys, ys]))
+    for key, want in ref.items():
+        np.testing.assert_allclose(np.asarray(getattr(batch, key))[1], want, rtol=1e-8,
+                                   atol=1e-10, err_msg=key)

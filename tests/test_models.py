@@ -505,3 +505,79 @@ def test_range_bearing_model_residual_wraps_the_bearing_and_checks_shapes():
         model.residual(np.zeros(3), np.zeros(3))
     with pytest.raises(ValueError, match=r"y_pred must have shape \(\.\.\., 2\)"):
         model.residual(np.zeros(2), np.zeros((4, 1)))
+
+
+# --------------------------------------------------------------------------
+# wrap_angle at the ends of (-pi, pi]; the likelihood of observed components
+# --------------------------------------------------------------------------
+
+def test_wrap_angle_stays_in_the_half_open_interval_next_to_pi():
+    """One ulp above pi, pi - ((pi - a) mod 2 pi) rounds to -pi, outside (-pi, pi]."""
+    above = np.nextafter(np.pi, 4.0)
+    assert np.pi - np.mod(np.pi - above, 2 * np.pi) == -np.pi   # the naive formula fails
+    got = bf.models.wrap_angle(above)
+    assert -np.pi < got <= np.pi and got == np.pi   # pi + 1 ulp is the angle pi, to rounding
+    assert isinstance(got, np.floating)
+    # around every odd multiple of pi, at and one ulp either side, and a few wide angles
+    odd = np.array([k * np.pi for k in range(-9, 10, 2)])
+    a = np.concatenate([odd, np.nextafter(odd, -np.inf), np.nextafter(odd, np.inf),
+                        np.linspace(-50, 50, 2001)])
+    w = bf.models.wrap_angle(a)
+    assert (w > -np.pi).all() and (w <= np.pi).all()
+    # the same angle: w - a is a multiple of 2 pi (to the rounding of a)
+    k = (w - a) / (2 * np.pi)
+    np.testing.assert_allclose(k, np.round(k), atol=1e-13)
+    r = bf.models.range_bearing_residual([1.0, above], [0.0, 0.0])
+    assert -np.pi < r[1] <= np.pi
+
+
+def test_measurement_logpdf_of_the_observed_components_equals_scipy():
+    """log p(y_o | x) is N(y_o; C_o x, R_oo), the marginal: scipy on the sub-block."""
+    R = np.array([[0.5, 0.2, 0.1], [0.2, 0.4, 0.05], [0.1, 0.05, 0.3]])
+    model = LG(A=np.eye(2), C=[[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], Q=np.eye(2), R=R,
+               m0=np.zeros(2), P0=np.eye(2))
+    xs = np.random.default_rng(6).standard_normal((5, 2))
+    y = np.array([0.3, np.nan, -0.4])
+    o = ~np.isnan(y)
+    ref = [multivariate_normal(model.C[o] @ x, R[np.ix_(o, o)]).logpdf(y[o]) for x in xs]
+    np.testing.assert_allclose(model.measurement_logpdf(y, xs, observed=o), ref, rtol=1e-12)
+    one = model.measurement_logpdf(y, xs[0], observed=o)
+    assert isinstance(one, float) and one == pytest.approx(ref[0], rel=1e-12)
+    # the unobserved entry is not read; all observed is the plain density
+    np.testing.assert_array_equal(model.measurement_logpdf(np.where(o, y, 1e9), xs, observed=o),
+                                  model.measurement_logpdf(y, xs, observed=o))
+    full = np.array([0.3, 0.1, -0.4])
+    np.testing.assert_array_equal(model.measurement_logpdf(full, xs, observed=np.ones(3, bool)),
+                                  model.measurement_logpdf(full, xs))
+    np.testing.assert_array_equal(model.measurement_logpdf(y, xs, observed=np.zeros(3, bool)),
+                                  np.zeros(5))
+
+
+def test_measurement_logpdf_of_the_bearing_alone_is_wrapped():
+    model = bf.models.range_bearing()
+    xs = np.array([[-5.0, 0.01, 0.0, 0.0], [-5.0, -0.01, 0.0, 0.0]])   # bearing ~ +-pi
+    y = np.array([np.nan, -np.pi + 0.001])
+    o = np.array([False, True])
+    pred = np.arctan2(xs[:, 1], xs[:, 0])
+    d = np.angle(np.exp(1j * (y[1] - pred)))          # an independent wrap
+    ref = -0.5 * (d ** 2 / model.R[1, 1] + np.log(2 * np.pi * model.R[1, 1]))
+    np.testing.assert_allclose(model.measurement_logpdf(y, xs, observed=o), ref, rtol=1e-12)
+
+
+def test_measurement_logpdf_observed_errors():
+    model = bf.models.damped_particle()
+    xs = np.zeros((3, 4))
+    with pytest.raises(ValueError, match=r"observed must be a boolean mask of shape \(2,\)"):
+        model.measurement_logpdf([0.0, 1.0], xs, observed=[0, 1])
+    with pytest.raises(ValueError, match=r"observed must be a boolean mask of shape \(2,\)"):
+        model.measurement_logpdf([0.0, 1.0], xs, observed=[True])
+    with pytest.raises(ValueError,
+                       match=r"y must be finite in the observed components, got y\[1\]"):
+        model.measurement_logpdf([0.0, np.nan], xs, observed=[True, True])
+    singular = LG(A=np.eye(2), C=np.eye(2), Q=np.eye(2), R=[[1.0, 0.0], [0.0, 0.0]],
+                  m0=np.zeros(2), P0=np.eye(2))
+    with pytest.raises(ValueError, match="R_oo .* must be positive definite"):
+        singular.measurement_logpdf([np.nan, 1.0], xs[:, :2], observed=[False, True])
+    # the block of the observed components can be definite when R is not
+    assert np.isfinite(singular.measurement_logpdf([1.0, np.nan], xs[:, :2],
+                                                   observed=np.array([True, False]))).all()

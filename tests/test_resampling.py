@@ -440,3 +440,44 @@ def test_from_uniforms_bad_uniforms(uniforms, error, message):
 def test_unknown_scheme_is_a_key_error():
     with pytest.raises(KeyError):
         resampling.SCHEMES["bootstrap"]
+
+
+# --------------------------------------------------------------------------
+# The boundary rule a_j = min{i : p_j < C_i}: strict, so a zero weight never wins
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("weights, uniforms, expected", [
+    # a point at 0 is below C_1 = 1 but not below C_0 = 0: index 1, never the zero weight
+    ([0.0, 1.0], [0.0], [1]),
+    ([0.0, 0.0, 2.0], [0.0], [2]),
+    # zero weights in the middle: C = 0.25, 0.5, 0.5, 1. Point 2 is (2 + 0)/4 = 0.5, exactly
+    # on C_1 = C_2: it belongs to the first piece that ends above it, index 3
+    ([1.0, 1.0, 0.0, 2.0], [0.0, 0.0, 0.0, 0.0], [0, 1, 3, 3]),
+    ([1.0, 1.0, 0.0, 0.0, 2.0], [0.0, 0.0, 0.0, 0.0], [0, 1, 4, 4]),
+    # zero weights at the end: C = 0.5, 1, 1, 1; the last point, 0.75, is index 1
+    ([1.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0, 0, 1, 1]),
+    # a point exactly on a boundary between positive weights goes to the next piece
+    ([1.0, 3.0], [0.0, 0.0, 0.0, 0.0], [0, 1, 1, 1]),
+    # the largest uniform below 1 stays in the last positive piece
+    ([1.0, 1.0, 0.0], [np.nextafter(1.0, 0.0)], [1]),
+])
+def test_from_uniforms_boundary_rule(weights, uniforms, expected):
+    got = resampling.from_uniforms(weights, uniforms)
+    np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(got, brute_force_inverse_cdf(np.array(weights),
+                                                               np.array(uniforms)))
+    assert np.all(np.array(weights)[got] > 0)
+
+
+@pytest.mark.parametrize("name", ["systematic", "stratified"])
+def test_a_uniform_of_zero_never_picks_a_zero_weight(name, monkeypatch):
+    """rng.random() can return exactly 0.0; then every point is on a stratum boundary j/M."""
+    w = np.array([0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 2.0, 0.0])
+
+    class Zero:
+        def random(self, size=None):
+            return 0.0 if size is None else np.zeros(size)
+
+    monkeypatch.setattr(resampling, "as_rng", lambda name, rng: rng)
+    a = SCHEMES[name](w, Zero(), M=8)
+    np.testing.assert_array_equal(a, [1, 1, 3, 3, 6, 6, 6, 6])

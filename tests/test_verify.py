@@ -128,3 +128,66 @@ def test_together_prints_one_line_and_fails_with_the_first_failing_check(capsys)
     with pytest.raises(ValueError, match="no check"):
         with bf.verify.together("empty"):
             pass
+
+
+def test_bernstein_limits_against_the_inequality_written_out_and_a_simulation():
+    # a fair die: values 1..6, mean 3.5, variance 35/12; b = 2.5 on both sides
+    values, probs, n = np.arange(1.0, 7.0), np.full(6, 1 / 6), 50
+    low, high = bf.verify.bernstein_limits(values, probs, n, k=2)
+    L = math.log(4 / 1e-4)
+    # Bernstein's bound at the limit equals alpha / (2 k) exactly
+    for eps in (high, -low):
+        assert math.isclose(math.exp(-n * eps**2 / (2 * 35 / 12 + 2 * 2.5 * eps / 3)),
+                            1e-4 / 4, rel_tol=1e-9)
+    assert math.isclose(high, -low) and high > 0
+    # the limits hold: the exact law of the sum of 50 rolls (repeated convolution) puts
+    # less than alpha / (2 k) beyond each limit
+    pmf = np.ones(1)
+    for _ in range(n):
+        pmf = np.convolve(pmf, probs)
+    mean_minus = np.arange(n, 6 * n + 1) / n - 3.5          # the sample mean minus 3.5
+    assert pmf[mean_minus > high].sum() < 1e-4 / 4 and pmf[mean_minus < low].sum() < 1e-4 / 4
+    # they are wider than the normal limit of the same false-alarm level
+    assert high > bf.verify.z_limit(2) * math.sqrt(35 / 12 / n)
+    with pytest.raises(ValueError, match="probs"):
+        bf.verify.bernstein_limits(values, np.full(6, 0.2), n)
+    with pytest.raises(ValueError, match="n"):
+        bf.verify.bernstein_limits(values, probs, 0)
+
+
+def test_mc_bounded_accepts_a_correct_mean_and_rejects_a_biased_one(capsys):
+    bf.verify.forget()
+    values, probs = np.array([0.0, 1.0]), np.array([0.9, 0.1])
+    draws = (np.random.default_rng(1).random(10_000) < 0.1).astype(float)
+    bf.verify.mc_bounded("rare successes agree with p = 0.1", draws, values, probs)
+    assert capsys.readouterr().out == "\u2713 rare successes agree with p = 0.1\n"
+    with pytest.raises(AssertionError, match="Bernstein"):
+        bf.verify.mc_bounded("p = 0.13", draws, values, np.array([0.87, 0.13]))
+
+
+def test_mc_moments_covariance_limits_are_proven_bounds():
+    from scipy.stats import chi2
+    from bayesfilt.verify import _covariance_limits
+    P = np.array([[2.0, 0.6, 0.0], [0.6, 0.5, -0.3], [0.0, -0.3, 1.0]])
+    M, k = 2000, 9
+    t = math.log(2 * k / 1e-4)
+    low, high = _covariance_limits(P, M, t)
+    # a variance entry: (M - 1) S_ii / P_ii is chi-square with M - 1 degrees of freedom, so
+    # its exact tails beyond the limits are below alpha / (2 k)
+    for i in range(3):
+        assert chi2.sf((M - 1) * (1 + high[i, i] / P[i, i]), M - 1) < 1e-4 / (2 * k)
+        assert chi2.cdf((M - 1) * (1 + low[i, i] / P[i, i]), M - 1) < 1e-4 / (2 * k)
+    # an off-diagonal entry: z^T A z with z ~ N(0, P), A = (e_i e_j^T + e_j e_i^T) / 2, is
+    # sum lambda (g^2 - 1) + P_ij with lambda the eigenvalues of A P (its moment generating
+    # function is det(I - 2 s A P)^(-1/2)); the limits use lambda = (P_ij +- sqrt(P_ii P_jj))/2
+    for i, j in [(0, 1), (1, 2), (0, 2)]:
+        A = np.zeros((3, 3))
+        A[i, j] = A[j, i] = 0.5
+        lam = np.sort(np.linalg.eigvals(A @ P).real)
+        lam = lam[np.abs(lam) > 1e-12]
+        root = math.sqrt(P[i, i] * P[j, j])
+        assert np.allclose(lam, sorted([(P[i, j] - root) / 2, (P[i, j] + root) / 2]))
+    # the limits are symmetric in (i, j) and wider than the normal ones, but not by much
+    assert np.allclose(low, low.T) and np.allclose(high, high.T)
+    se = np.sqrt((np.outer(np.diag(P), np.diag(P)) + P**2) / (M - 1))
+    assert np.all(high / se > bf.verify.z_limit(k)) and np.all(high / se < 1.25 * bf.verify.z_limit(k))

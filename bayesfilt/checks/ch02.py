@@ -1,10 +1,11 @@
 """Checks of chapter 02's exercises (the Kalman filter derived; references by bf.kalman, bf.gaussian, bf.bayes).
-One line per exercise::
+One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
-    exercise_1(excess_1): P+(K) - P+(K*), the covariance a suboptimal gain adds;
+    exercise_1(excess_1): P+(K) - P+(K*), the covariance a suboptimal gain adds [P_1, C_1, R_1, K_1];
     exercise_2(kalman_gain): the gain K = P C^T S^{-1}, on five inputs;
-    exercise_3(info_3): the posterior precision, the prediction's plus the measurement's;
-    exercise_4(agree_4, meaning_4, grid_means_uniform): the grid filter under uniform noise, and what the KF mean is;
+    exercise_3(info_3): the posterior precision, the prediction's plus the measurement's [P_3, C_3, R_3];
+    exercise_4(agree_4, meaning_4, grid_means_uniform): the grid filter under uniform noise, and what the KF
+        mean is [a_4];
     exercise_5(correlated_gain): the gain when cov(w_t, v_{t+1}) = D, on four inputs.
 """
 
@@ -15,8 +16,8 @@ import numbers
 
 import numpy as np
 
-from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _combine, _frozen, _hinted, _named, _not_attempted,
-               _wrong, compare_array, compare_choice, compare_function, register as _register)
+from . import (CORRECT, INCORRECT, Feedback, _combine, _frozen, _hinted, _is, _named, _normal,
+               _not_attempted, _wrong, compare_array, compare_function, given, register as _register)
 from .. import bayes, gaussian, kalman, models
 
 # the statements' numbers: a predicted covariance (m^2, m^2/step, (m/step)^2), the position sensor and its noise
@@ -51,15 +52,21 @@ def _shapes_hint(shapes: str):
     return lambda exc, args: f" Hint: check the shapes: {shapes}." if any(w in str(exc) for w in words) else ""
 
 
+def _given_arrays(**defaults) -> list[np.ndarray]:
+    """The notebook's arrays of these names (float), or the statement's values."""
+    return [np.array(given(name, value), dtype=float) for name, value in defaults.items()]
+
+
 def exercise_1(excess) -> Feedback:
-    """excess_1 = P+(K) - P+(K*) for the gain K_1 (shape (2, 2))."""
-    P, C, R, K, w = P_EX, C_EX, R_EX, K_1, "excess_1"
-    best, CPCt, IKC = _posterior(P, C, R).cov, C @ P @ C.T, np.eye(2) - K @ C
+    """excess_1 = P+(K) - P+(K*) for the gain K_1 (shape (2, 2)), with P_1, C_1, R_1."""
+    P, C, R, K = _given_arrays(P_1=P_EX, C_1=C_EX, R_1=R_EX, K_1=K_1)
+    w = "excess_1"
+    best, CPCt, IKC = _posterior(P, C, R).cov, C @ P @ C.T, np.eye(len(P)) - K @ C
     joseph, K0 = IKC @ P @ IKC.T + K @ R @ K.T, _gain(P, C, R, CPCt)          # P+(K) for any gain K
     expected = joseph - best
     return _named(excess, expected, w, [
-        (lambda a: a.size == 1, f"{w} is a single number, but P+(K) - P+(K*) is a 2 x 2 matrix: K - "
-                                f"K* is a column, so (K - K*) S (K - K*)^T is an outer product."),
+        (lambda a: a.size == 1, f"{w} is a single number, but P+(K) - P+(K*) is a matrix, shape {P.shape}: "
+                                f"K - K* is a column, so (K - K*) S (K - K*)^T is an outer product."),
         (-expected, f"{w} has the wrong sign: the exercise asks for P+(K) - P+(K*), the uncertainty "
                     f"the suboptimal gain adds, which is positive semi-definite."),
         (P - K @ C @ P - best, f"{w}: for the gain K you used P - KCP, the posterior covariance only "
@@ -105,12 +112,15 @@ def exercise_2(kalman_gain) -> Feedback:
         for n in (2, 3)] + [(np.zeros((2, 2)), C_EX, R_EX)]
     return compare_function(_hinted(kalman_gain, hint), lambda P, C, R: _posterior(P, C, R).gain,
                             [tuple(map(np.array, case)) for case in cases], what="kalman_gain",
-                            mistakes=_GAIN_MISTAKES)
+                            mistakes=_GAIN_MISTAKES, forbidden=[({"kalman"}, "bf.kalman, which the statement "
+                                                                 "rules out: K = P C^T S^{-1} with np.linalg.solve "
+                                                                 "or np.linalg.inv.")])
 
 
 def exercise_3(info) -> Feedback:
-    """info_3, the posterior precision P_{t+1|t+1}^{-1} for P_EX, C_EX and R_3 (shape (2, 2))."""
-    P, C, R, w = P_EX, C_EX, R_3, "info_3"
+    """info_3, the posterior precision P_{t+1|t+1}^{-1} for P_3, C_3 and R_3 (shape (2, 2))."""
+    P, C, R = _given_arrays(P_3=P_EX, C_3=C_EX, R_3=R_3)
+    w = "info_3"
     post_cov, P_inv, meas = _posterior(P, C, R).cov, np.linalg.inv(P), C.T @ np.linalg.inv(R) @ C
     return _named(info, np.linalg.inv(post_cov), w, [
         (post_cov, f"{w} is the posterior covariance P_{{t+1|t+1}}; the exercise asks for its inverse, "
@@ -122,6 +132,8 @@ def exercise_3(info) -> Feedback:
         (P_inv + C.T @ R @ C, f"{w}: R is not inverted: the measurement contributes C^T R^{{-1}} C (a "
                               f"precise sensor, small R, adds much precision)."),
         (P_inv - meas, f"{w}: a measurement adds precision, it cannot remove it: check the sign of C^T R^{{-1}} C."),
+        (np.linalg.inv(P + C.T @ R @ C), f"{w}: you inverted the sum P + C^T R C; precisions add: P^{{-1}} + "
+                                         f"C^T R^{{-1}} C."),
     ])
 
 
@@ -131,84 +143,100 @@ def _model_1d():
     return model, models.simulate(model, STEPS_1D, np.random.default_rng(SEED_1D)).ys
 
 
-@functools.lru_cache(maxsize=4)
-def _uniform_grid_means(a: float) -> np.ndarray:
-    """The grid filter's 10 posterior means on the 1-D model with w_t uniform on [-a, a]."""
+@functools.lru_cache(maxsize=16)
+def _uniform_grid_means(a: float, variant: str = "right") -> np.ndarray:
+    """The grid filter's 10 posterior means on the 1-D model with w_t uniform on [-a, a]; or a mistake's."""
     (model, ys), g = _model_1d(), GRID_1D
     A, C, R = model.A[0, 0], model.C[0, 0], model.R[0, 0]
+    A = 1.0 if variant == "no A" else A
 
     def pdf(x, mean, var):
         return np.exp(-0.5 * (x - mean) ** 2 / var) / np.sqrt(2 * np.pi * var)
-    transition = bayes.grid_transition(g, lambda x1, x0: np.where(np.abs(x1 - A * x0) <= a, 0.5 / a, 0.0))
+    transition = bayes.grid_transition(g, lambda x1, x0: pdf(x1, A * x0, model.Q[0, 0]) if variant == "gaussian"
+                                       else np.where(np.abs(x1 - A * x0) <= a, 0.5 / a, 0.0))
     likelihoods = [bayes.grid_likelihood(g, y, lambda y, x: pdf(y, C * x, R)) for y in ys[:, 0]]
     prior_0 = pdf(g, model.m0[0], model.P0[0, 0])
-    return _frozen(bayes.bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods).posteriors @ g)
+    run = bayes.bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods)
+    return _frozen((run.priors if variant == "priors" else run.posteriors) @ g)
 
 
-_SYNONYMS = {"best linear estimate": ("best linear estimator", "best linear", "the best linear estimate", "blue",
-                                      "best linear unbiased estimate", "best linear unbiased estimator",
-                                      "linear mmse", "lmmse"),
-             "conditional mean": ("conditional mean estimate", "the conditional mean", "posterior mean", "mmse")}
+_MEANS_MISTAKES = [
+    ("priors", "these are the means of the predictions (run.priors); the exercise asks for the posteriors."),
+    ("no A", "the state moves first: the uniform noise is centred on 0.9 x_prev, |x_next - 0.9 x_prev| <= a "
+             "(yours on x_prev)."),
+    ("gaussian", "these are the means under section 10's Gaussian noise; replace its density by the "
+                 "uniform one, 1/(2a) where |x_next - 0.9 x_prev| <= a.")]
+# meaning_4: the right option and its synonyms, and the wrong options' synonyms, as digests (not in clear)
+_RIGHT_4 = {"sha256:ch02-ex4:d61ae77aa5a6a4f9a59b", "sha256:ch02-ex4:c784ca6c0707b71c1b9f",
+            "sha256:ch02-ex4:a432cf4660ae6481b96f", "sha256:ch02-ex4:da4f5e1ea8bf81f33320",
+            "sha256:ch02-ex4:23903348447feef6a07c", "sha256:ch02-ex4:9717b81326f663d3a8da",
+            "sha256:ch02-ex4:50df3bf6f14aa6b851a6", "sha256:ch02-ex4:b56145ec74520d9202ce",
+            "sha256:ch02-ex4:94dc0677eacb1b12f855"}
+_OTHERS_4 = {"sha256:ch02-ex4:4517247fd43ed478dc21", "sha256:ch02-ex4:7fa85c1202383c205f13",
+             "sha256:ch02-ex4:0f4636d7a1befd627481", "sha256:ch02-ex4:6677554519605f62c658",
+             "sha256:ch02-ex4:417034b4a194d25e1bf5", "sha256:ch02-ex4:883c46e49a7d0a63a068"}
+
+
+def _meaning_4(meaning) -> Feedback:
+    w = "meaning_4"
+    if meaning is None or meaning is Ellipsis:
+        return _not_attempted(w)
+    if isinstance(meaning, str) and any(_is(meaning, d) for d in _RIGHT_4):
+        return Feedback(CORRECT, f"{w} is right.")
+    if isinstance(meaning, str) and (any(_is(meaning, d) for d in _OTHERS_4)
+                                     or _normal(meaning) in map(_normal, OPTIONS_4)):
+        return _wrong(f"{w} is not the right option. Under the uniform noise the grid computes E(x_t | "
+                      f"y_0, ..., y_t), and you have just seen it differ from the Kalman mean, which uses "
+                      f"only means and covariances: which estimator does section 8 define by means and "
+                      f"covariances alone, whatever the distributions?")
+    shown = repr(meaning)[:60] if isinstance(meaning, str) else type(meaning).__name__
+    return _wrong(f"{w} must be one of {list(OPTIONS_4)}, got {shown}.")
+
+
+def _agree_4(agree, a: float) -> Feedback:
+    w = "agree_4"
+    if agree is None or agree is Ellipsis:
+        return _not_attempted(w)
+    agree = agree.item() if isinstance(agree, np.ndarray) and agree.size == 1 else agree
+    if isinstance(agree, (bool, np.bool_)) or not isinstance(agree, numbers.Real):
+        return _wrong(f"{w} must be a single time step, an int such as 3 (got {type(agree).__name__}).")
+    if not np.isfinite(agree) or agree != round(agree):
+        return _wrong(f"{w} must be a whole number, a time step t = 0, ..., {STEPS_1D - 1}.")
+    if not 0 <= (t := int(round(agree))) < STEPS_1D:
+        return _wrong(f"{w} = {t} is not one of the steps t = 0, ..., {STEPS_1D - 1}.")
+    gaps = np.abs(_uniform_grid_means(a) - kalman.kalman_filter(*_model_1d()).means[:, 0])
+    agreeing = list(np.flatnonzero(gaps < AGREE_TOL_4))
+    if agreeing == [t]:
+        return Feedback(CORRECT, f"{w} is right.")
+    gap = f"at t = {t} the grid and Kalman posterior means differ by {gaps[t]:.1e} m, far more than " \
+          f"{AGREE_TOL_4:.0e}"
+    if agreeing and t == agreeing[0] + 1:
+        return _wrong(f"{w}: did you count the steps from 1? {gap[0].upper()}{gap[1:]}. Steps are numbered from "
+                      f"t = 0, y_0 measuring x_0; or did you compare the predictions (priors) rather than the "
+                      f"posteriors?")
+    return _wrong(f"{w}: {gap}. Print |grid mean - Kalman mean| for each of the 10 steps.")
 
 
 def exercise_4(agree, meaning, grid_means_uniform=None) -> Feedback:
     """agree_4 (the step where grid and Kalman posterior means agree), meaning_4 and, when given,
-    grid_means_uniform(a) against the library's grid filter at a = sqrt(1.5) and a = 1."""
-    def _meaning_feedback(meaning) -> Feedback:
-        if isinstance(meaning, str):
-            said = " ".join(meaning.strip().lower().replace("-", " ").split())
-            meaning = next((k for k, v in _SYNONYMS.items() if said in v), meaning)
-        fb = compare_choice(meaning, "best linear estimate", OPTIONS_4, "meaning_4")
-        chosen = meaning.strip().lower() if fb.status == INCORRECT and isinstance(meaning, str) else ""
-        return _wrong({
-            "conditional mean": "meaning_4: not the conditional mean. Under the uniform noise, E(x_t | y_0, ..., "
-                                "y_t) is what the grid computes, and you have just seen the two differ. "
-                                "Conditioning a joint Gaussian: which estimator depends only on means and "
-                                "covariances, all that the Kalman filter uses?",
-            "neither": "meaning_4: the section conditioning a joint Gaussian names an estimator "
-                       "that depends only on means and covariances, which is all that the Kalman filter uses; "
-                       "with the same means and covariances, is its mean not that estimator?",
-        }[chosen]) if chosen in ("conditional mean", "neither") else fb
-    def _step_feedback(agree) -> Feedback:
-        w = "agree_4"
-        if agree is None or agree is Ellipsis:
-            return _not_attempted(w)
-        agree = agree.item() if isinstance(agree, np.ndarray) and agree.size == 1 else agree
-        if isinstance(agree, (bool, np.bool_)) or not isinstance(agree, numbers.Real):
-            return _wrong(f"{w} must be a single time step, an int such as 3 (got {type(agree).__name__}).")
-        if not np.isfinite(agree) or agree != round(agree):
-            return _wrong(f"{w} must be a whole number, a time step t = 0, ..., {STEPS_1D - 1}.")
-        if not 0 <= (t := int(round(agree))) < STEPS_1D:
-            return _wrong(f"{w} = {t} is not one of the steps t = 0, ..., {STEPS_1D - 1}.")
-        gaps = np.abs(_uniform_grid_means(HALF_WIDTH_4) - kalman.kalman_filter(*_model_1d()).means[:, 0])
-        if list(np.flatnonzero(gaps < AGREE_TOL_4)) == [t]:
-            return Feedback(CORRECT, f"{w} is right.")
-        return _wrong(f"{w}: at t = {t} the grid posterior mean differs from the Kalman filter's by "
-                      f"{gaps[t]:.1e} m, far more than {AGREE_TOL_4:.0e}." + (
-                          " Did you compare the predictions (grid_res.priors) rather than the posteriors, "
-                          "or count the steps from 1? Steps are numbered from t = 0, y_0 measuring x_0."
-                          if t == 1 else " Print |grid mean - Kalman mean| for each of the 10 steps."))
-    def means_compare(out, expected, what="the output") -> Feedback:
-        fb = compare_array(out, expected, what)
-        return fb if fb.status != INCORRECT else _wrong(
-            f"grid_means_uniform: {fb.message} (The 10 posterior means, posteriors @ grid, of bayes_filter(prior_0 / "
-            f"prior_0.sum(), transition, likelihoods) with the density 1/(2a) on |x_next - 0.9 x_prev| <= a; test "
-            f"input 1 is a = sqrt(1.5), test input 2 a = 1.)")
+    grid_means_uniform(a) against the library's grid filter at a = a_4 (sqrt(1.5)) and a = 1."""
+    a = float(given("a_4", HALF_WIDTH_4))
+    parts = [("agree_4", _agree_4(agree, a)), ("meaning_4", _meaning_4(meaning))]
     if grid_means_uniform is not None:
-        means = compare_function(grid_means_uniform, _uniform_grid_means, [(HALF_WIDTH_4,), (1.0,)],
-                                 what="grid_means_uniform", compare=means_compare)
-        return _combine([("grid_means_uniform", means),
-                         ("agree_4 and meaning_4", exercise_4.__wrapped__(agree, meaning))])
-    parts = (("agree_4", _step_feedback(agree)), ("meaning_4", _meaning_feedback(meaning)))
-    statuses = {fb.status for _, fb in parts}
-    if statuses == {CORRECT}:
+        means = compare_function(grid_means_uniform, lambda a: _uniform_grid_means(a), [(a,), (1.0,)],
+                                 what="grid_means_uniform", mistakes=[
+                                     (lambda a, v=v: _uniform_grid_means(a, v), m) for v, m in _MEANS_MISTAKES])
+        if means.status == INCORRECT and "entries differ" in means.message:
+            means = _wrong(means.message.replace("(Test input", "Return the 10 posterior means, posteriors @ grid, "
+                                                 "of bayes_filter(prior_0 / prior_0.sum(), transition, likelihoods) "
+                                                 "with the density 1/(2a) on |x_next - 0.9 x_prev| <= a. (Test input"))
+        parts.insert(0, ("grid_means_uniform", means))
+    statuses = {fb.status for _, fb in parts[-2:]}
+    if statuses == {CORRECT} and len(parts) == 2:
         return Feedback(CORRECT, "agree_4 and meaning_4 are right.")
-    if statuses == {NOT_ATTEMPTED}:
-        return Feedback(NOT_ATTEMPTED, "agree_4 and meaning_4 are still None; write your answers in "
-                                       "the cell above and run it, then run this check again.")
-    return Feedback(INCORRECT if INCORRECT in statuses else NOT_ATTEMPTED, " ".join(
-        f"{name} is right." if fb.correct else f"{name} is still None." if fb.status == NOT_ATTEMPTED
-        else fb.message for name, fb in parts))
+    if statuses == {CORRECT}:
+        return _combine([parts[0], ("agree_4 and meaning_4", Feedback(CORRECT, "agree_4 and meaning_4 are right."))])
+    return _combine(parts)
 
 
 def _correlated(P, C, R, G, D, sign=1.0, cross_terms=2, solved=False):

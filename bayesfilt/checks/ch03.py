@@ -1,11 +1,12 @@
 """Checks of chapter 03's exercises (the damped particle; references by bf.models, bf.kalman, bf.gaussian).
-One line per exercise::
+One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
-    exercise_1(stabilising_1, std_1, radius_1): the steady state of damped_particle(damping=1.0);
-    exercise_2(rank_2, detectable_2, var_2): observability and detectability with C = [1, 0, 0, 0];
+    exercise_1(stabilising_1, std_1, radius_1): the steady state of damped_particle(damping=1.0) [model_1];
+    exercise_2(rank_2, detectable_2, var_2): observability and detectability with C = [1, 0, 0, 0] [model_2];
     exercise_3(normalised_squared): the NEES / NIS d_t^T P_t^{-1} d_t, on six inputs;
-    exercise_4(end_of_gap_variance, slope_4): the variance at the end of a gap in the data, and its log-log slope;
-    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of z_t under three mistuned models.
+    exercise_4(end_of_gap_variance, slope_4): the variance at the end of a gap in the data, and its log-log slope
+        (and section 1's ys, put back if an answer wrote NaN into it) [ys];
+    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of z_t under three mistuned models [models_5].
 """
 
 from __future__ import annotations
@@ -14,8 +15,8 @@ import functools
 
 import numpy as np
 
-from . import (INCORRECT, Feedback, _as_numbers, _combine, _each_case, _frozen, _hinted, _named,
-               _wrong, compare_choice, compare_number, register as _register)
+from . import (INCORRECT, Feedback, _Stop, _as_numbers, _combine, _each_case, _forbidden, _frozen, _hinted, _named,
+               _wrong, compare_choice, compare_number, given, register as _register)
 from .. import gaussian, kalman, models
 
 # the statements' numbers (ex 4 tries length 10 first: at length 1, zeros for NaN and one step early agree; ex 5:
@@ -27,6 +28,7 @@ GAP_START, GAP_LENGTHS, SLOPE_LENGTHS, ATOL_SLOPE = 40, (10, 20, 1, 2, 5, 33, 60
 MODELS_5 = (("Q ×10", dict(force_var=0.1)), ("R ×0.1", dict(meas_var=0.1)), ("R ×10", dict(meas_var=10.0)))
 OTHER_MODELS_5 = (("the correct model", {}), ("Q ×0.1 (section 6)", dict(force_var=0.001)))
 LONG_SEED, N_LONG, ATOL_5, OTHER_RECORD_5, OPTIONS_5 = 5, 1000, 2e-3, 5 / np.sqrt(1000), ("ratio", "scale", "neither")
+SEES_5 = "sha256:ch03-ex5:7253dfb99bf17a340b58"          # the right option of sees_5, as a digest
 _X1, _V1 = models.damped_particle().index_of("x1", "x1_dot")          # the components of the gap's mistakes
 
 
@@ -42,24 +44,43 @@ def _number(answer, expected, what, mistakes=(), rtol=0.0, atol=0.0, fallback=""
     return _wrong(f"{what}: {fallback}") if fallback else fb
 
 
-@functools.lru_cache(maxsize=None)
-def _steady(damping: float) -> dict:                   # std of ξ_1, ..., the spectral radius and its mistakes
-    model = models.damped_particle(damping=damping)
+def _steady_of(model) -> dict:                         # std of ξ_1, ..., the spectral radius and its mistakes
     ss, (x1, v1), pos = kalman.steady_state(model), model.index_of("x1", "x1_dot"), model.index_of("x1", "x2")
-    eig = np.linalg.eigvals(model.A @ (np.eye(4) - ss.gain @ model.C))        # Phi = A (I - K C)
+    eig = np.linalg.eigvals(model.A @ (np.eye(model.state_dim) - ss.gain @ model.C))    # Phi = A (I - K C)
     return dict(std=np.sqrt(ss.cov[x1, x1]), var=ss.cov[x1, x1], pred_std=np.sqrt(ss.pred_cov[x1, x1]),
                 vel_std=np.sqrt(ss.cov[v1, v1]), both=np.sqrt(np.trace(ss.cov[np.ix_(pos, pos)])),
                 radius=np.abs(eig).max(), real=np.abs(eig.real).max(),
                 a_minus_kc=np.abs(np.linalg.eigvals(model.A - ss.gain @ model.C)).max())
 
 
+@functools.lru_cache(maxsize=None)
+def _steady(damping: float) -> dict:
+    return _steady_of(models.damped_particle(damping=damping))
+
+
+def _yes_no(flag: bool) -> str:
+    return YES_NO[0] if flag else YES_NO[1]
+
+
+def _detectable(A, C) -> bool:
+    """(A, C) detectable: every mode with |lambda| >= 1 shows in C (the PBH test)."""
+    n = len(A)
+    return all(np.linalg.matrix_rank(np.vstack([lam * np.eye(n) - A, C])) == n
+               for lam in np.linalg.eigvals(A) if abs(lam) >= 1 - 1e-9)
+
+
 def exercise_1(stabilising, std, radius) -> Feedback:
-    """stabilising_1 ("yes"), std_1 and radius_1 of the steady state of damped_particle(damping=1.0)."""
-    u, d = _steady(DAMPING_1), _steady(0.98)
-    damped = "this is section 7's value, for the damped particle (0.98); use bf.models.damped_particle(damping=1.0)."
+    """stabilising_1, std_1 and radius_1 of the steady state of model_1 (damped_particle(damping=1.0))."""
+    model = given("model_1", None)
+    try:
+        u = _steady(DAMPING_1) if model is None else _steady_of(model)
+    except ValueError:                     # a teacher's model_1 without a stabilising solution
+        return _combine([("stabilising_1", compare_choice(stabilising, _yes_no(False), YES_NO, "stabilising_1",
+                                                          _HINT_1))])
+    d = _steady(0.98)
+    damped = "this is section 7's value, for the damped particle (0.98); use model_1, without damping."
     return _combine([
-        ("stabilising_1", compare_choice(stabilising, "yes", YES_NO, "stabilising_1", "try bf.kalman.steady_state on "
-         "the undamped model; reread section 7's two conditions: does either ask for an eigenvalue of A below 1?")),
+        ("stabilising_1", compare_choice(stabilising, _yes_no(True), YES_NO, "stabilising_1", _HINT_1)),
         ("std_1", _number(std, u["std"], "std_1", atol=ATOL_1, mistakes=[
             (d["std"], damped), (u["var"], "this is the variance (m²); the standard deviation is its square root."),
             (u["pred_std"], "this is the standard deviation of the prediction P_{t|t-1} (steady_state(...).pred_cov); "
@@ -73,7 +94,8 @@ def exercise_1(stabilising, std, radius) -> Feedback:
         ("radius_1", _number(radius, u["radius"], "radius_1", atol=ATOL_1, mistakes=[
             (d["radius"], damped), (u["radius"] ** 2, "this is |lambda|_max², the rate at which P_{t|t-1} approaches "
                                     "P_inf (section 12); the spectral radius is |lambda|_max itself."),
-            (1.0, "1 is the spectral radius of A (and of I - K_inf C); errors move by A (I - K_inf C) (section 7)."),
+            (1.0, "1 is the spectral radius of A (and, to 4 decimals, of I - K_inf C); errors move by A (I - K_inf "
+                  "C) (section 7)."),
             (u["real"], "this is the largest real part; the eigenvalues of A (I - K_inf C) are complex: take their "
              "modulus (np.abs), not .real."),
             (u["a_minus_kc"], "this is the spectral radius of A - K_inf C; the update comes before the prediction, "
@@ -81,37 +103,53 @@ def exercise_1(stabilising, std, radius) -> Feedback:
     ])
 
 
-@functools.lru_cache(maxsize=None)
-def _one_axis() -> dict:                               # the filter of ξ_1 alone on section 1's ys[:, :1]
-    sim = models.simulate(model := models.damped_particle(), T, np.random.default_rng(SECTION_1_SEED))
-    out = kalman.kalman_filter(models.LinearGaussian(A=model.A, C=C_2, Q=model.Q, R=R_2, m0=model.m0, P0=model.P0,
-                                                     G=model.G, state_names=model.state_names), sim.ys[:, :1])
-    (x1, v1, x2, v2), P = model.index_of("x1", "x1_dot", "x2", "x2_dot"), out.covs[STEP_2]
-    after = kalman.predict(out.means[-1], out.covs[-1], model.A, model.Q, G=model.G).cov     # t = 100
-    rank = lambda C: np.linalg.matrix_rank(np.vstack([C @ np.linalg.matrix_power(model.A, k) for k in range(4)]))
-    return dict(var=P[x2, x2], std=np.sqrt(P[x2, x2]), before=out.covs[STEP_2 - 1, x2, x2], after=after[x2, x2],
-                measured=P[x1, x1], vel=P[v2, v2], vel1=P[v1, v1], prior=model.P0[x2, x2], rank=rank(C_2),
-                rank_c=np.linalg.matrix_rank(C_2), rank_full=rank(model.C))
+_HINT_1 = ("try bf.kalman.steady_state on model_1, and reread section 7's two conditions (detectable, "
+           "stabilisable): which mode of A would each need?")
+
+
+@functools.lru_cache(maxsize=1)
+def _section_1():
+    return models.simulate(models.damped_particle(), T, np.random.default_rng(SECTION_1_SEED))
+
+
+def _one_axis(model) -> dict:                          # the filter of model_2 on section 1's ys[:, :m]
+    ys = _section_1().ys[:, :model.C.shape[0]]
+    out, n, A = kalman.kalman_filter(model, ys), model.state_dim, model.A
+    named = model.state_names is not None and {"x1", "x1_dot", "x2", "x2_dot"} <= set(model.state_names)
+    (x1, v1, x2, v2), P = (model.index_of("x1", "x1_dot", "x2", "x2_dot") if named else (0, 1, 2, 3)), out.covs[-1]
+    after = kalman.predict(out.means[-1], out.covs[-1], A, model.Q, G=model.G).cov     # t = T
+    rank = lambda C: np.linalg.matrix_rank(np.vstack([C @ np.linalg.matrix_power(A, k) for k in range(n)]))
+    return dict(var=P[x2, x2], std=np.sqrt(P[x2, x2]), before=out.covs[-2, x2, x2], after=after[x2, x2],
+                measured=P[x1, x1], vel=P[v2, v2], vel1=P[v1, v1], prior=model.P0[x2, x2], rank=rank(model.C),
+                rank_c=np.linalg.matrix_rank(model.C), rank_full=rank(models.damped_particle().C), n=n,
+                detectable=_detectable(A, model.C))
 
 
 def exercise_2(rank, detectable, variance) -> Feedback:
-    """rank_2, detectable_2 ("no") and var_2, the variance of ξ_2 at t = 99, for C = [1, 0, 0, 0], R = 1."""
-    ref, last = _one_axis(), "the last step of the run is t = 99 (covs[-1])."
+    """rank_2, detectable_2 and var_2, the variance of ξ_2 at t = 99, for model_2 (C = [1, 0, 0, 0], R = 1)."""
+    model = given("model_2", None)
+    if model is None:
+        dp = models.damped_particle()
+        model = models.LinearGaussian(A=dp.A, C=C_2, Q=dp.Q, R=R_2, m0=dp.m0, P0=dp.P0, G=dp.G,
+                                      state_names=dp.state_names)
+    ref, last = _one_axis(model), f"the last step of the run is t = {T - 1} (covs[-1])."
     return _combine([
         ("rank_2", _number(rank, ref["rank"], "rank_2", fallback="this is not the rank of [C; CA; CA²; CA³]; "
                            "compute it with np.linalg.matrix_rank.", mistakes=[
             (lambda v: v != round(v), "a rank counts independent rows: it is a whole number."),
-            (lambda v: not 0 <= v <= 4, "the observability matrix is 4 x 4 here, so its rank lies between 0 and 4."),
+            (lambda v: not 0 <= v <= ref["n"], f"the observability matrix has {ref['n']} columns here, so its rank "
+                                               f"lies between 0 and {ref['n']}."),
             (ref["rank_full"], "full rank would mean that noise-free y_0, ..., y_3 determine the whole state, as with "
              "the chapter's sensor. Write out the rows C A^k for C = [1, 0, 0, 0]: which columns stay zero?"),
             (ref["rank_c"], "this is the rank of C alone; stack C, CA, CA², CA³ (section 7) and take the rank of "
              "the 4 x 4 result (np.linalg.matrix_rank).")])),
-        ("detectable_2", compare_choice(detectable, "no", YES_NO, "detectable_2", "detectability asks about every "
-         "mode of A with |lambda| >= 1 (section 7): does each show in y = ξ_1 + v? Try bf.kalman.steady_state.")),
+        ("detectable_2", compare_choice(detectable, _yes_no(ref["detectable"]), YES_NO, "detectable_2",
+                                        "detectability asks about every mode of A with |lambda| >= 1 (section 7): "
+                                        "does each show in y = C x + v? Try bf.kalman.steady_state.")),
         ("var_2", _number(variance, ref["var"], "var_2", rtol=RTOL_2, mistakes=[
             (ref["std"], "this is the standard deviation (m); the variance is its square (m²)."),
-            (ref["before"], "this is the variance at t = 98; the run has T = 100 steps, so " + last),
-            (ref["after"], "this is one prediction beyond the run, t = 100; " + last),
+            (ref["before"], f"this is the variance at t = {T - 2}; the run has T = {T} steps, so " + last),
+            (ref["after"], f"this is one prediction beyond the run, t = {T}; " + last),
             (ref["measured"], "this is the variance of a position the sensor measures (ξ_1 here, or ξ_2 in the "
              "chapter's filter); C = [1, 0, 0, 0] never measures ξ_2."),
             (ref["vel"], "this is the velocity x2_dot (ξ̇_2, (m/step)²); ξ_2 is model.index_of('x2')."),
@@ -168,7 +206,10 @@ def exercise_3(normalised_squared) -> Feedback:
                     w in str(exc) for w in ("matmul", "align", "broadcast", "dimension")) else "")
     fun = None if normalised_squared is Ellipsis else normalised_squared
     labels, d, P = zip(*_nees_cases())
-    return _each_case(_hinted(fun, hint), "normalised_squared", list(zip(d, P)), labels, judge)
+    fb = _each_case(_hinted(fun, hint), "normalised_squared", list(zip(d, P)), labels, judge)
+    return _forbidden(fb, fun, "normalised_squared", [
+        ({"gaussian"}, "bf.gaussian, which the statement rules out: compute d_t^T P_t^{-1} d_t with NumPy "
+                       "(a loop, or np.linalg.solve on the stack).")])
 
 
 @functools.lru_cache(maxsize=None)
@@ -208,17 +249,43 @@ def _gap_judge(fun, out, where, args) -> Feedback:
          "A missing measurement is a row of NaN (np.nan), not of zeros.")])
 
 
+def _repair_ys() -> str:
+    """Section 1's ys put back where an answer wrote NaN into the notebook's ys; what was done, or ""."""
+    ys, original = given("ys", None), _section_1().ys
+    if not isinstance(ys, np.ndarray) or ys.shape != original.shape or not ys.flags.writeable:
+        return ""
+    nan = np.isnan(ys) & ~np.isnan(original)
+    if not nan.any() or not np.array_equal(ys[~nan], original[~nan]):
+        return ""                                    # intact, or not section 1's ys (left alone)
+    rows = np.flatnonzero(nan.any(axis=1))
+    ys[nan] = original[nan]
+    return (f"the chapter's ys had NaN in {len(rows)} rows ({rows[0]} to {rows[-1]}) when the check started: "
+            f"a call of end_of_gap_variance in your answer cell wrote its gap into section 1's ys in place "
+            f"(ys[40:40 + length] = np.nan). Work on a copy, ys_cut = ys.copy(); the check has put section "
+            f"1's values back into ys.")
+
+
 def exercise_4(end_of_gap_variance, slope) -> Feedback:
-    """end_of_gap_variance(length) against bf.kalman.kalman_filter on GAP_LENGTHS, and slope_4."""
+    """end_of_gap_variance(length) against bf.kalman.kalman_filter on GAP_LENGTHS, and slope_4; the
+    notebook's ys, if an answer wrote NaN into it, is put back to section 1's values."""
+    repaired = _repair_ys()
+    try:
+        fb = _exercise_4(end_of_gap_variance, slope)
+    except _Stop as stop:                 # the guard's "Not yet", with what was done to ys
+        fb = _wrong(stop.args[0])
+    if repaired and fb.status != INCORRECT:
+        return _wrong(repaired)
+    return _wrong(f"{fb.message} (Also: {repaired})") if repaired else fb
+
+
+def _exercise_4(end_of_gap_variance, slope) -> Feedback:
     (lo, hi), fun = SLOPE_LENGTHS, None if end_of_gap_variance is Ellipsis else end_of_gap_variance
     v_lo, v_hi, d_log_l = _gap_var(lo), _gap_var(hi), np.log(hi / lo)
     expected, mixed = np.log(v_hi / v_lo) / d_log_l, "you mixed two logarithms ({}); use the same one for both."
     return _combine([
         ("end_of_gap_variance", _each_case(_hinted(fun, lambda exc, args: (
             " Hint: the run has T = 100 steps; the gap's last step is t = 39 + length (t = 99 for "
-            "length = 60)." if isinstance(exc, IndexError) else " Hint: delete whole measurements, "
-            "both components NaN: ys_cut[40:40 + length] = np.nan." if "partly NaN" in str(exc)
-            else "")), "end_of_gap_variance", [(n,) for n in GAP_LENGTHS],
+            "length = 60)." if isinstance(exc, IndexError) else "")), "end_of_gap_variance", [(n,) for n in GAP_LENGTHS],
             [f"length = {n}" for n in GAP_LENGTHS], functools.partial(_gap_judge, fun))),
         ("slope_4", _number(slope, expected, "slope_4", atol=ATOL_SLOPE, mistakes=[
             (expected / 2, "this is the standard deviation's slope; the variance's is twice it (log of a square)."),
@@ -229,42 +296,63 @@ def exercise_4(end_of_gap_variance, slope) -> Feedback:
              "by log 20 - log 10."),
             (np.log10(v_hi / v_lo) / d_log_l, mixed.format("log10 and ln")),
             (np.log(v_hi / v_lo) / np.log10(hi / lo), mixed.format("ln and log10")),
-            (1 / expected, "you divided the other way round: the slope is d log(variance) / d log(length).")])),
+            (1 / expected, "you divided the other way round: the slope is d log(variance) / d log(length)."),
+            (v_hi / v_lo, "this is the ratio v(20) / v(10); the slope takes logarithms: log(v(20) / v(10)) / log 2."),
+            (np.log(v_hi / v_lo), "you did not divide by log 20 - log 10 = log 2: the slope is a ratio of two "
+             "logarithms.")])),
     ])
 
 
+@functools.lru_cache(maxsize=1)
+def _ys_long() -> np.ndarray:
+    return models.simulate(models.damped_particle(), N_LONG, np.random.default_rng(LONG_SEED)).ys
+
+
+def _lags(model) -> tuple[np.ndarray, np.ndarray]:
+    """(lags 1-5 of z_t, shape (5, 2); lag 1 of r_t, (2,)) of the filter of model on ys_long."""
+    res = kalman.kalman_filter(model, _ys_long())
+    z = gaussian.normalised_innovations(res.innovations, res.innovation_covs)
+    return gaussian.autocorrelation(z, 5), gaussian.autocorrelation(res.innovations, 1)[0]
+
+
 @functools.lru_cache(maxsize=None)
-def _lag_values() -> dict:                             # lags 1-5 of z_t, lag 1 of r_t, on ys_long, for each model
-    ys_long, out = models.simulate(models.damped_particle(), N_LONG, np.random.default_rng(LONG_SEED)).ys, {}
-    for label, kw in MODELS_5 + OTHER_MODELS_5:
-        res = kalman.kalman_filter(models.damped_particle(**kw), ys_long)
-        out[label] = gaussian.autocorrelation(gaussian.normalised_innovations(res.innovations, res.innovation_covs), 5)
-        out["raw " + label] = gaussian.autocorrelation(res.innovations, 1)[0]
-    return out
+def _lags_of(label: str) -> tuple[np.ndarray, np.ndarray]:
+    return _lags(models.damped_particle(**dict(MODELS_5 + OTHER_MODELS_5)[label]))
 
 
 def exercise_5(lag1, sees) -> Feedback:
-    """lag1_5 (3, 2), the lag-1 autocorrelations of z_t for MODELS_5 on ys_long, and sees_5 ("ratio")."""
-    values, w, labels = _lag_values(), "lag1_5", [label for label, _ in MODELS_5]
-    lag, close = lambda k: np.array([values[x][k - 1] for x in labels]), functools.partial(np.allclose, atol=ATOL_5)
+    """lag1_5 (3, 2), the lag-1 autocorrelations of z_t for the models of models_5 (Q ×10, R ×0.1, R ×10)
+    on ys_long, and sees_5."""
+    given_models, w, labels = given("models_5", None), "lag1_5", [label for label, _ in MODELS_5]
+    rows = [_lags_of(x) for x in labels] if given_models is None else [_lags(m) for m in given_models]
+    lag = lambda k: np.array([z[k - 1] for z, _ in rows])  # noqa: E731
+    close = functools.partial(np.allclose, atol=ATOL_5)
     expected, lag_is = lag(1), "autocorrelation(z, max_lag)[0] is lag 1 (row k - 1 holds lag k)."
+    others = [(x, _lags_of(x)[0][0]) for x, _ in OTHER_MODELS_5] + list(zip(labels, expected))
+
     def mixup(a) -> str | None:         # a row that holds the values of another model
         for row, label in enumerate(labels):
-            for other, _ in (OTHER_MODELS_5 + MODELS_5) if not close(a[row], values[label][0], rtol=0.0) else ():
-                if other != label and close(a[row], values[other][0], rtol=0.0):
+            for other, values in others if not close(a[row], expected[row], rtol=0.0) else ():
+                if other != label and close(a[row], values, rtol=0.0):
                     return (f"{w}: row {row + 1} ({label}) holds the values of "
                             f"{'Q ×10 or R ×0.1' if other in labels[:2] else other}; check which model you filtered "
                             f"with (force_var / meas_var).")
+    one = "autocorrelation(z, 2)[:, {0}] takes a column, the lags of one component; row k must hold lag 1 of both " \
+          "components: autocorrelation(z, 1)[0]."
     return _combine([
         ("lag1_5", _named(lag1, expected, w, rtol=0.0, atol=ATOL_5, mistakes=[
             (lambda a: a.shape == (20, 2) or (a.ndim == 3 and a.shape[0] == 3), f"{w} must hold lag 1 only, shape "
              f"(3, 2): {lag_is}"),
+            (lambda a: a.shape in ((3, 1), (1, 3)), f"{w} holds one component of z_t only: give both, one column per "
+             f"component, shape (3, 2) (autocorrelation(z, 1)[0] for each model)."),
             (lambda a: a.shape in ((2,), (3,)), lambda a: f"{w} must have shape (3, 2): one row per model (Q ×10, "
              f"R ×0.1, R ×10), one column per component of z_t; got shape {a.shape}."),
             (np.ones((3, 2)), f"{w} is lag 0 (any sequence matches itself perfectly); lag 1 pairs z_t with z_{{t+1}}."),
+            *[(np.array([z[:2, c] for z, _ in rows]), f"{w} holds lags 1 and 2 of component {c + 1} of z_t: "
+               + one.format(c)) for c in (0, 1)],
             *[(lag(k), f"{w} is lag {k}; {lag_is}") for k in range(2, 6)],
-            (np.array([values["raw " + x] for x in labels]), f"{w} is the autocorrelation of the raw innovations r_t; "
-             f"the test reads z_t = bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)."),
+            (np.array([raw for _, raw in rows]), f"{w} is the autocorrelation of the raw innovations r_t; the test "
+             f"reads z_t = bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)."),
             *[(expected[list(order)], f"{w} has its rows in another order; the order is Q ×10, R ×0.1, R ×10 "
                f"(models_5).") for order in ((0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0))],
             (lambda a: a.shape == (3, 2) and mixup(a) is not None, mixup),
@@ -272,8 +360,9 @@ def exercise_5(lag1, sees) -> Feedback:
              and np.all(np.sign(a) == np.sign(expected)), f"{w} is close to the right values but not equal to 3 "
              f"decimals: another record, or another estimate of the correlation (np.corrcoef, your own formula)? "
              f"Filter ys_long of section 6 (1000 steps, seed 5), use bf.gaussian.autocorrelation(z, 1)[0].")])),
-        ("sees_5", compare_choice(sees, "ratio", OPTIONS_5, "sees_5", "compare the rows of Q ×10 and R ×0.1, two "
+        ("sees_5", compare_choice(sees, SEES_5, OPTIONS_5, "sees_5", "compare the rows of Q ×10 and R ×0.1, two "
                                   "models with the same Q / R, and then their NIS in section 5's table.")),
     ])
+
 
 _register(globals())

@@ -1,11 +1,16 @@
 """Checks of chapter 04's exercises (the EKF; references by bf.models, bf.ekf, bf.kalman, bf.gaussian).
-One line per exercise::
+One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
     exercise_1(range_bearing_jacobian): the range-bearing Jacobian H, by hand;
     exercise_2(converted_cov, nees_2): the converted covariance J R J^T, and the NEES of a filter started from it;
-    exercise_3(iterated_ekf_update, answer_3): the iterated EKF update, and the position of its limit;
+    exercise_3(iterated_ekf_update, answer_3): the iterated EKF update, and the position of its limit
+        [y0_3, m0_3, P0_3];
     exercise_4(turn_jacobian): the Jacobian F of a vehicle turning at the rate omega, by hand;
     exercise_5(wrapped_innovation): the innovation with its bearing wrapped into (-pi, pi].
+
+"By hand" is checked three ways: a float64 Jacobian must agree with the closed form to round-off (a
+finite-difference one agrees to about 1e-10; a float32 one is judged to float32 round-off instead), and the code
+must not call bf.ekf.numerical_jacobian, model.H, nor hold a complex constant (a complex-step derivative).
 """
 
 from __future__ import annotations
@@ -16,8 +21,10 @@ import functools
 import numpy as np
 
 from .. import ekf, gaussian, kalman, models
-from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _frozen, _hinted, _matches, _not_attempted,
-               _wrong, compare_array, compare_function, compare_number, register as _register)
+from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _complex_step, _frozen, _hinted, code_names,
+               referenced,
+               _low_precision, _matches, _not_attempted, _wrong, compare_array, compare_function, compare_number,
+               given, register as _register)
 
 # the statements' numbers; each function's check adds two random cases, drawn with its seed
 H_SEED, CONVERT_SEED, TURN_SEED, INNOVATION_SEED, ON_THE_RY_AXIS, EXACTLY_PI = 4041, 4042, 4044, 4045, 4, 5
@@ -59,9 +66,10 @@ def _compare(entry=None, by_hand=False, rules=()):
         if what is None or fb.status == NOT_ATTEMPTED or " must be " in fb.message:
             return fb                         # a named mistake's comparison, or an answer that is not numbers
         a, e = np.asarray(out, dtype=float), np.asarray(e, dtype=float)
-        if fb.correct and by_hand and (err := float(np.max(np.abs(a - e)))) > 1e-12 * max(1.0, np.max(np.abs(e))):
-            return _wrong(f"{what} agrees with the closed form only to about {err:.0e}: a finite-difference Jacobian, "
-                          f"not derivatives by hand? A closed form agrees to round-off (1e-12).")
+        if fb.correct and by_hand and not _low_precision(out) and (
+                err := float(np.max(np.abs(a - e)))) > 1e-12 * max(1.0, np.max(np.abs(e))):
+            return _wrong(f"a finite-difference Jacobian, not derivatives by hand? {what} agrees with the closed "
+                          f"form only to about {err:.0e}; derivatives by hand agree to round-off (1e-12).")
         hit = None if fb.correct else next((m for rule, m in rules if rule(a, e)), None)
         if hit is not None or fb.correct or entry is None or "entries differ" not in fb.message:
             return _wrong(f"{what}: {hit}") if hit else fb
@@ -70,13 +78,24 @@ def _compare(entry=None, by_hand=False, rules=()):
     return compare
 
 
-def _function(fun, what, cases, reference, variant, table, hints=(), compare=None, **compare_kw) -> Feedback:
+def _function(fun, what, cases, reference, variant, table, hints=(), compare=None, forbidden=(),
+              **compare_kw) -> Feedback:
     """compare_function (Ellipsis is None); the named mistakes are variant(*args, **kw) for (kw, message) in table; a
-    failure gets the text of the first hint (exception types, test(exc, args), text) that fits."""
+    failure gets the text of the first hint (exception types, test(exc, args), text) that fits; with by_hand, a
+    right function must not differentiate numerically (module docstring)."""
     hint = lambda exc, args: next((f" Hint: {t}" for kinds, test, t in hints  # noqa: E731
                                    if isinstance(exc, kinds) and test(exc, args)), "")
-    return compare_function(None if fun is Ellipsis else _hinted(fun, hint), reference, cases, what, mistakes=[
-        (lambda *args, kw=kw: variant(*args, **kw), m) for kw, m in table], compare=compare or _compare(**compare_kw))
+    fb = compare_function(None if fun is Ellipsis else _hinted(fun, hint), reference, cases, what, mistakes=[
+        (lambda *args, kw=kw: variant(*args, **kw), m) for kw, m in table], compare=compare or _compare(**compare_kw),
+        forbidden=[*forbidden, *(_NUMERICAL if compare_kw.get("by_hand") else ())])
+    if fb.correct and compare_kw.get("by_hand") and _complex_step(fun):
+        return _wrong(f"{what} holds a complex number (1j): a complex-step derivative is a numerical one too, "
+                      f"exact to round-off but not derived; write each entry of the closed form by hand.")
+    return fb
+
+
+_NUMERICAL = [({"numerical_jacobian"}, "bf.ekf.numerical_jacobian: a finite-difference Jacobian, not derivatives "
+                                       "by hand; write each entry of the closed form.")]
 
 
 # Exercise 1: the range-bearing Jacobian H, in Kay's state order [r_x, r_y, v_x, v_y] --------------------------------
@@ -98,8 +117,8 @@ _H_MISTAKES = [
     ({"bearing": "rho"}, "the bearing row is divided by rho; it is divided by rho^2 (d beta / d r_x = -r_y / rho^2)."),
     ({"rng": "one"}, "the range row is not divided by rho: d rho / d r_x = r_x / rho (a unit vector), not r_x."),
     ({"rng": "square"}, "the range row is the derivative of rho^2, not of rho: d rho / d r_x = r_x / rho."),
-    ({"then": lambda H: H[:, :2]}, "the velocities do not enter h, but H has a column for each of the 4 state "
-     "components: shape (2, 4), not (2, 2).")]
+    ({"then": lambda H: H[:, :2]}, "H must have shape (2, 4), not (2, 2): the velocities do not enter h, but H has "
+     "a column for each of the 4 state components.")]
 
 
 def exercise_1(range_bearing_jacobian) -> Feedback:
@@ -118,7 +137,13 @@ def exercise_1(range_bearing_jacobian) -> Feedback:
              ((IndexError, ValueError), lambda *_: True, "x is a NumPy array of shape (4,); return shape (2, 4).")]
     return _function(range_bearing_jacobian, "range_bearing_jacobian", _jacobian_states(), _model().H, _h_variant,
                      _H_MISTAKES, hints, entry=lambda i: f"d {('rho', 'beta')[i[0]]} / d {_STATE[i[1]]}",
-                     by_hand=True, rules=[on_axis])
+                     by_hand=True, rules=[on_axis], forbidden=[(_uses_model_H, "model.H, which the statement "
+                                                                "rules out: derive each entry of H by hand.")])
+
+
+def _uses_model_H(fun) -> bool:
+    """Does fun call the H of a model (an object with h and H) that it reads?"""
+    return "H" in code_names(fun) and any(hasattr(o, "H") and hasattr(o, "h") for o in referenced(fun))
 
 
 # Exercise 2: a prior from the first measurement: J R J^T, and the NEES of the EKF started from it -----------------
@@ -220,15 +245,32 @@ _ITERATION_MISTAKES = [({"mode": mode}, m) for mode, m in [
      "H_i (m0 - x^(i))."),
     ("term_sign", "the term H_i (m0 - x^(i)) has the wrong sign: the innovation is y - h(x^(i)) - H_i (m0 - x^(i))."),
     ("unwrapped", "the bearing part of y - h(x^(i)) is not wrapped (bf.models.range_bearing_residual)."),
-    ("fixed_H", "you re-evaluate h at x^(i) but keep the Jacobian of m0: re-linearise, H_i = H(x^(i)).")]]
+    ("fixed_H", "you keep the Jacobian of m0 while h is re-evaluated at x^(i): re-linearise, H_i = H(x^(i)).")]]
 
 
 @functools.cache
+def _section_1_y0() -> np.ndarray:
+    model = _model()
+    return _frozen(models.simulate(model, SECTION_1_STEPS, np.random.default_rng(SECTION_1_SEED),
+                                   x0=models.RANGE_BEARING_TRUE_START).ys[0])
+
+
+def _kay() -> tuple:
+    """The prior and measurement of answer_3: the notebook's m0_3, P0_3, y0_3, or Kay's first update."""
+    model = _model()
+    return tuple(_frozen(given(name, value)) for name, value in (
+        ("m0_3", model.m0), ("P0_3", model.P0), ("y0_3", _section_1_y0())))
+
+
 def _limit_positions() -> dict:
+    return _limit_positions_of(*(tuple(np.ravel(a)) for a in _kay()))
+
+
+@functools.lru_cache(maxsize=4)
+def _limit_positions_of(m0: tuple, P0: tuple, y0: tuple) -> dict:
     """Kay's first update, its limit, section 8's grid posterior mean, the positions of wrong answers (messages)."""
     model, g, n = _model(), np.arange(-25.0, 35.0 + 0.1, 0.2), LIMIT_ITERATIONS
-    kay = (model.m0, model.P0, _frozen(models.simulate(model, SECTION_1_STEPS, np.random.default_rng(SECTION_1_SEED),
-                                                       x0=models.RANGE_BEARING_TRUE_START).ys[0]))
+    kay = (_frozen(m0), _frozen(np.reshape(P0, (4, 4))), _frozen(y0))
     pos, grid = model.index_of("r_x", "r_y"), np.zeros((g.size**2, 4))
     grid[:, pos] = np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)
     log_post = model.measurement_logpdf(kay[2], grid) + gaussian.logpdf(grid[:, pos], kay[0][pos], kay[1][pos][:, pos])
@@ -238,7 +280,7 @@ def _limit_positions() -> dict:
         return {"kay": kay, "limit": at(n), "grid": post @ grid[:, pos] / post.sum(), "table": [
             (at(1), " is x^(1), the ordinary EKF update of section 8; iterate until x^(i) no longer moves."),
             *[(at(k), f" is x^({k}), still on its way: iterate until x^(i) no longer moves.") for k in range(2, 6)],
-            (model.m0[pos], " is the prior mean m0, x^(0); the limit is where the iterations go."),
+            (kay[0][pos], " is the prior mean m0, x^(0); the limit is where the iterations go."),
             (models.RANGE_BEARING_TRUE_START[pos], " is the true start, which the filter does not know."),
             (None, " is (close to) the mean of the exact posterior of section 8; the iterated EKF converges to the "
                    "MAP, the point of largest posterior density."),
@@ -247,8 +289,8 @@ def _limit_positions() -> dict:
             (at(n, "repeated"), ": this is where repeated EKF updates with the same y_0 go; update the prior each "
                                 "time."),
             (at(n)[::-1], " has r_x and r_y swapped: give [r_x, r_y]."),
-            (..., " is not the limit for y_0 = sim.ys[0] of section 1 to 0.01 m: iterate your iterated_ekf_update from "
-                  "m0 until x^(i) no longer moves, and give its position.")]}
+            (..., " is not the limit for y0_3 (y_0 = sim.ys[0] of section 1) to 0.01 m: iterate your "
+                  "iterated_ekf_update from m0 until x^(i) no longer moves, and give its position.")]}
 
 
 def _answer_3(answer, what="answer_3") -> Feedback:
@@ -266,7 +308,8 @@ def _answer_3(answer, what="answer_3") -> Feedback:
 
 def exercise_3(iterated_ekf_update, answer) -> Feedback:
     """Check ``iterated_ekf_update(m0, P0, y, n_iter)`` on six inputs, and ``answer_3``, the limit, to 0.011 m."""
-    model, kay = _model(), tuple(np.array(a) for a in _limit_positions()["kay"])
+    model = _model()
+    kay = (np.array(model.m0), np.array(model.P0), np.array(_section_1_y0()))      # the test inputs stay Kay's
     cases = [kay + (n,) for n in (1, 2, 0, 10)] + [tuple(map(np.array, WRAP_PRIOR)) + (3,),
                                                   tuple(map(np.array, TIGHT_PRIOR)) + (4,)]
     hints = [(NameError, lambda exc, args: "model" in str(exc), "use the chapter's model (bf.models.range_bearing())."),
@@ -344,6 +387,8 @@ def exercise_5(wrapped_innovation) -> Feedback:
          "y_pred, the measurement minus its prediction."),
         ({}, "the bearing difference is not wrapped: across the +-pi cut the plain difference is almost 2 pi; wrap "
              "it into (-pi, pi]."),
+        ({"wrap": lambda d: np.array([d[0], np.arctan(np.tan(d[1]))])}, "arctan(tan(d)) folds the bearing difference "
+         "into (-pi/2, pi/2): beyond pi/2 it comes back shifted by pi; wrap by 2 pi into (-pi, pi]."),
         ({"wrap": lambda d: np.array([d[0], np.mod(d[1], 2 * np.pi)])}, "the bearing difference is wrapped into [0, 2 "
          "pi); a turn to the right must stay negative: (-pi, pi]."),
         ({"wrap": models.wrap_angle}, "you wrapped the range difference too; only the bearing is an angle."),
@@ -357,7 +402,9 @@ def exercise_5(wrapped_innovation) -> Feedback:
                                 f"though the chapter's interval (-pi, pi] writes it pi.)") or e
         return named(out, e, what, **tol)
     fb = _function(wrapped_innovation, "wrapped_innovation", cases, models.range_bearing_residual, _plain, mistakes,
-                   compare=compare)
+                   compare=compare, forbidden=[({name}, f"bf.models.{name}, which the statement rules out: wrap with "
+                                                        f"NumPy (np.mod, or a while loop).")
+                                               for name in ("wrap_angle", "range_bearing_residual")])
     return Feedback(CORRECT, fb.message + "".join(remark)) if fb.correct else fb
 
 

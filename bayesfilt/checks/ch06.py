@@ -1,10 +1,12 @@
 r"""Checks of chapter 06's exercises (resampling, the particle filter; references by the library).
-One line per exercise::
+One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
     exercise_1(my_systematic): systematic resampling's ancestors a_j of the comb p_j = (j + u)/N;
-    exercise_2(answer_2): E[N^(2)] and Var(N^(2)) under multinomial, systematic and residual resampling;
-    exercise_3(answer_3): resamplings per record at three ESS thresholds, and the threshold of largest RMSE;
-    exercise_4(answer_4, n_particles): the smallest roughening K that keeps track, and its NEES verdict.
+    exercise_2(answer_2): E[N^(2)] and Var(N^(2)) under multinomial, systematic and residual resampling [W_2, M_2];
+    exercise_3(answer_3): resamplings per record at three ESS thresholds, and the threshold of largest RMSE; the
+        function threshold_experiment(thresholds) the statement asks for is called [thresholds,
+        threshold_experiment];
+    exercise_4(answer_4, n_particles): the smallest roughening K that keeps track, and its NEES verdict [K_values].
 """
 
 from __future__ import annotations
@@ -19,8 +21,8 @@ import numpy as np
 from scipy import stats
 
 from .. import gaussian, kalman, models, particle, resampling
-from . import (CORRECT, Feedback, _as_numbers, _each_case, _hinted, _matches, _not_attempted,
-               _wrong, register as _register)
+from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _each_case, _forbidden, _hinted, _matches,
+               _not_attempted, _wrong, given, register as _register)
 
 SIX_WEIGHTS, U_STATEMENT, TOL_INDEX = (0.05, 0.32, 0.08, 0.22, 0.13, 0.20), 0.5, 1e-12  # round-off at an Ω^(i)
 WEIGHTS_2, M_2, PARTICLE_2, ATOL_HAND = (0.42, 0.28, 0.18, 0.12), 10, 1, 2e-3         # 3 decimals
@@ -159,7 +161,8 @@ def exercise_1(my_systematic) -> Feedback:
     fun = _hinted(None if my_systematic is Ellipsis else my_systematic, lambda exc, args: (
         " (an index past the end: is the last cumulative weight exactly 1? Divide the cumulative "
         "sums by the last one.)" if isinstance(exc, IndexError) else ""))
-    fb = _each_case(fun, what, cases, labels, judge)
+    fb = _forbidden(_each_case(fun, what, cases, labels, judge), fun, what, [
+        ({"resampling"}, "bf.resampling, which the statement rules out: np.cumsum and a loop or np.searchsorted.")])
     if fb.correct and any(floats):
         return _wrong(f"{what} returns the right ancestors as floating-point numbers; indices must be integers "
                       f"(x[a] fails with a float array): np.searchsorted returns integers, or use .astype(int).")
@@ -182,18 +185,20 @@ def _law_2(W: np.ndarray, M: int, i: int) -> np.ndarray:
 
 def exercise_2(answer) -> Feedback:
     """``answer_2 = np.array([E N^(2), Var multinomial, Var systematic, Var residual])``, to 3 decimals."""
+    weights, M = np.array(given("W_2", WEIGHTS_2), dtype=float), int(given("M_2", M_2))
+
     def _variants_2() -> list[list[tuple[float, str]]]:
         """For each entry of answer_2, (a plausible wrong value, what it means)."""
-        W = np.array(WEIGHTS_2) / np.sum(WEIGHTS_2)
-        M, w, other = M_2, W[PARTICLE_2], _law_2(W, M_2, 0)          # particle 0: a numbering mix-up
+        W = weights / np.sum(weights)
+        w, other = W[PARTICLE_2], _law_2(W, M, 0)          # particle 0: a numbering mix-up
         MW, R, mw, res = M * w, M - np.floor(M * W).sum(), "M W^(2) (1 - W^(2))", "M̃ = M - sum_i floor(M W^(i))"
         f, std = MW % 1.0, "is a standard deviation; the question asks for the variance (its square)."
-        zero = ("is the value for particle 1 (weight 0.42): the code's index 0, since it is numbered from 0; "
-                "the exercise's particle 2 is the one with weight W^(2) = 0.28.")
+        zero = (f"is the value for particle 1 (weight {W[0]:g}): the code's index 0, since it is numbered from 0; "
+                f"the exercise's particle 2 is the one with weight W^(2) = {W[1]:g}.")
         whole = "is a whole number; an expected count need not be one: unbiasedness says E[N^(i)] = M W^(i) exactly."
         return [
-            [(w, "is the probability W^(2) that one draw picks particle 1; over M = 10 draws the expected number of "
-                 "copies is M W^(2)."), (MW // 1, whole), (MW // 1 + 1, whole),
+            [(w, f"is the probability W^(2) that one draw picks particle 2; over M = {M} draws the expected number "
+                 f"of copies is M W^(2)."), (MW // 1, whole), (MW // 1 + 1, whole),
              (M / len(W), "is M / N, the expected count of equal weights; particle 1 gets M W^(2)."), (other[0], zero)],
             [(MW, f"is M W^(2) (a Poisson variance); the multinomial count is binomial, Var(N^(2)) = {mw}."),
              (w * (1 - w), f"is the variance W^(2) (1 - W^(2)) of one draw's indicator; the M independent draws add "
@@ -218,6 +223,8 @@ def exercise_2(answer) -> Feedback:
                            f"Var = M̃ (φ/M̃)(1 - φ/M̃) = φ (1 - φ/M̃). Count M̃ again."),
              (M * w * (1 - w), f"is the multinomial variance over all M draws; in the residual scheme the "
                                f"floor(M W^(i)) copies are fixed and only {res} draws are random: Var = φ (1 - φ/M̃)."),
+             (f * (1 - f) / R, f"divides the whole variance φ (1 - φ) by M̃; only φ is divided: Var = "
+                               f"φ (1 - φ/M̃), with {res}."),
              (f * (1 - f / M), f"divides φ by M; the residual weights φ^(i) are normalised by their sum {res}, not by "
                                f"M: Var = φ (1 - φ/M̃)."),
              (R * f * (1 - f / R), "has an extra factor M̃: M̃ draws with probability φ/M̃ each give "
@@ -232,7 +239,7 @@ def exercise_2(answer) -> Feedback:
     if bad is not None or a.shape != (4,):
         return bad or _wrong(f"{what} has four numbers in shape {a.shape}; give a flat array, {order}."
                              if a.size == 4 else f"{what} must hold four numbers, {order}; got shape {a.shape}.")
-    ref = _law_2(np.array(WEIGHTS_2), M_2, PARTICLE_2)
+    ref = _law_2(weights, M, PARTICLE_2)
     close = np.isclose(a, ref, rtol=0, atol=ATOL_HAND)
     if close.all():
         return Feedback(CORRECT, f"{what} matches the reference: all four schemes are unbiased (the same "
@@ -242,8 +249,8 @@ def exercise_2(answer) -> Feedback:
         return _wrong(f"{what} has the right numbers in the wrong order: E[N^(2)], then the variances under "
                       f"multinomial, systematic and residual resampling.")
     k = int(np.argmin(close))
-    label = f"{what}[{k}], the " + ("expected count E[N^(2)]," if k == 0 else "variance of N^(2) under "
-                                    f"{('multinomial', 'systematic', 'residual')[k - 1]} resampling,")
+    label = f"{what}[{k}] (" + ("E[N^(2)])" if k == 0 else f"Var(N^(2)), "
+                                 f"{('multinomial', 'systematic', 'residual')[k - 1]})")
     message = next((m for v, m in _variants_2()[k] if abs(a[k] - v) <= ATOL_HAND < abs(v - ref[k])),
                    "is negative; a variance never is." if k > 0 and a[k] < -ATOL_HAND else
                    "is close but not exact (a simulation's estimate, or rounded too early?): work it out with "
@@ -254,36 +261,53 @@ def exercise_2(answer) -> Feedback:
 
 
 # --- exercise 3: the ESS threshold ------------------------------------------------------------------------
-@functools.lru_cache(maxsize=1)
-def _experiment_3() -> tuple[np.ndarray, float, float]:
+@functools.lru_cache(maxsize=4)
+def _experiment_3(thresholds: tuple = THRESHOLDS_3) -> tuple[np.ndarray, float, float]:
     """(mean resamplings per record per threshold, the threshold of largest RMSE, of smallest)."""
     lg = models.LinearGaussian(**LG_3)
     records = models.simulate_many(lg, RECORDS_3, T_3, np.random.default_rng(SEED_RECORDS_3))
     kfs, counts, rmse = [kalman.kalman_filter(lg, ys) for ys in records.ys], [], []
-    for theta in THRESHOLDS_3:
+    for theta in thresholds:
         rng = np.random.default_rng(SEED_FILTERS_3)
         runs = [(particle.particle_filter(lg, ys, N_3, rng, ess_threshold=theta), kf)
                 for ys, kf in zip(records.ys, kfs)]
         counts.append(np.mean([res.resampled.sum() for res, _ in runs]))
         rmse.append(np.mean([np.mean((r.means[:, 0] - kf.means[:, 0]) ** 2 / kf.covs[:, 0, 0]) for r, kf in runs]))
-    return np.array(counts), THRESHOLDS_3[int(np.argmax(rmse))], THRESHOLDS_3[int(np.argmin(rmse))]
+    return np.array(counts), thresholds[int(np.argmax(rmse))], thresholds[int(np.argmin(rmse))]
 
 
 def exercise_3(answer) -> Feedback:
-    """``answer_3 = (resamplings, theta_worst)``; the counts within 20 % (at least 1), for any seed."""
-    what, per = "answer_3", "give the number of resamplings per record (res.resampled.sum())."
+    """``answer_3 = (resamplings, theta_worst)``; the counts within 20 % (at least 1), for any seed; the
+    statement's threshold_experiment(thresholds), which must give them, is called once."""
+    thresholds = tuple(float(t) for t in given("thresholds", THRESHOLDS_3))
+    value, fun = _answer_3(answer, thresholds), given("threshold_experiment", None)
+    if fun is None:                       # no notebook (a unit test): the answer alone
+        return value
+
+    def judge(out, where, args) -> Feedback:
+        fb = _answer_3(out, thresholds, "threshold_experiment(thresholds)")
+        return Feedback(CORRECT, "") if fb.correct else fb
+    helper = _each_case(fun, "threshold_experiment", [(thresholds,)], [""], judge)
+    if helper.status == NOT_ATTEMPTED and value.status != NOT_ATTEMPTED:
+        return _wrong("threshold_experiment is not written yet: the statement asks for the experiment as a "
+                      "function of the thresholds, and the check calls it.")
+    return value if helper.correct else _combine([("answer_3", value), ("threshold_experiment", helper)])
+
+
+def _answer_3(answer, thresholds: tuple, what: str = "answer_3") -> Feedback:
+    per = "give the number of resamplings per record (res.resampled.sum())."
     pair, bad = _pair(answer, what, "resamplings", "theta_worst")
     if bad is not None and isinstance(answer, (np.ndarray, list, tuple)) and np.size(answer) == 3:
         return _wrong(f"{what} must be a pair (resamplings, theta_worst): the array of three mean counts, then "
                       f"the threshold with the largest RMSE.")
     if bad is not None or (np.ndim(pair[0]) == 0 and np.size(pair[1]) == 3):
         return bad or _wrong(f"{what} is in the wrong order: first the array of three mean counts, then theta_worst.")
-    label = f"{what}[0], the mean number of resamplings per record,"
+    label, listed = f"{what}[0] (resamplings per record)", ", ".join(f"{t:g}" for t in thresholds)
     a, bad = _as_numbers(pair[0], label)
     if bad is not None or a.shape != (3,):
-        return bad or _wrong(f"{label} must hold three numbers, one for each threshold 0.1, 0.5, 0.9; got "
+        return bad or _wrong(f"{label} must hold three numbers, one for each threshold {listed}; got "
                              f"shape {a.shape}.")
-    ref, worst, best = _experiment_3()
+    ref, worst, best = _experiment_3(thresholds)
     near = lambda x, y: np.abs(x - y) <= np.maximum(ATOL_3, RTOL_3 * np.abs(y))  # noqa: E731
     k = int(np.argmin(near(a, ref)))
     for value, message in [  # (a wrong answer, its message); the last: too large or too small
@@ -293,22 +317,22 @@ def exercise_3(answer) -> Feedback:
             (100 * ref / T_3, f"is a percentage of the {T_3} steps; {per}"),
             (T_3 - ref, "counts the steps without resampling; count those with (res.resampled is True where "
                         "the filter resampled)."),
-            (ref[::-1], "lists the thresholds in reverse order; give them for 0.1, 0.5, 0.9."),
+            (ref[::-1], f"lists the thresholds in reverse order; give them for {listed}."),
             (a if np.any(np.diff(a) < 0) else np.nan, "falls as the threshold rises; a higher threshold theta N "
              "is reached sooner, so the filter resamples more often. Check which ess_threshold each run used."),
-            (a, f"is too {'large' if a[k] > ref[k] else 'small'} for theta = {THRESHOLDS_3[k]} (beyond Monte "
+            (a, f"is too {'large' if a[k] > ref[k] else 'small'} for theta = {thresholds[k]:g} (beyond Monte "
                 f"Carlo noise). Run the 20 records of section 3 (batch_lg, N = {N_3}) with "
-                f"ess_threshold={THRESHOLDS_3[k]} and average res.resampled.sum() over them.")]:
+                f"ess_threshold={thresholds[k]:g} and average res.resampled.sum() over them.")]:
         if not near(a, ref).all() and near(a, value).all() and not near(value, ref).all():
             return _wrong(f"{label} {message}")
-    v, bad = _number(pair[1], f"{what}[1], theta_worst,")
-    theta = None if bad else next((t for t in THRESHOLDS_3 if math.isclose(v, t, abs_tol=1e-9)), None)
+    v, bad = _number(pair[1], f"{what}[1] (theta_worst)")
+    theta = None if bad else next((t for t in thresholds if math.isclose(v, t, abs_tol=1e-9)), None)
     if theta is None:
-        return bad or _wrong(f"{what}[1], theta_worst, " + (
-            f"is not one of the thresholds {list(THRESHOLDS_3)}; give the threshold whose RMSE is largest, not "
-            f"the RMSE itself." if 0 < v < 0.5 else f"must be one of the thresholds {list(THRESHOLDS_3)}."))
+        return bad or _wrong(f"{what}[1] (theta_worst) " + (
+            f"is not one of the thresholds {list(thresholds)}; give the threshold whose RMSE is largest, not "
+            f"the RMSE itself." if 0 < v < 0.5 else f"must be one of the thresholds {list(thresholds)}."))
     if theta != worst:
-        return _wrong(f"{what}[1], theta_worst = {theta}, is not the threshold with the largest RMSE" + (
+        return _wrong(f"{what}[1] (theta_worst = {theta:g}) is not the threshold with the largest RMSE" + (
             " (did you take the smallest RMSE, np.argmin, instead of the largest?)" if theta == best else "")
             + ". Resampling adds noise, but waiting too long lets the weights degenerate between resamplings: "
             "compare the RMSE of the three thresholds, each the square root of the mean over the records of "
@@ -320,16 +344,16 @@ def exercise_3(answer) -> Feedback:
 
 
 # --- exercise 4: tuning roughening ------------------------------------------------------------------------
-@functools.lru_cache(maxsize=1)
-def _experiment_4() -> tuple[float, str]:
-    """(the smallest K of K_VALUES_4 that loses at most MAX_LOST_4 runs, its NEES verdict)."""
+@functools.lru_cache(maxsize=4)
+def _experiment_4(k_values: tuple = K_VALUES_4, n_particles: int = N_4) -> tuple[float, str]:
+    """(the smallest K of k_values that loses at most MAX_LOST_4 runs, its NEES verdict)."""
     vehicle = models.range_bearing()
     sims = models.simulate_many(vehicle, RUNS_4, T_4, np.random.default_rng(SEED_RECORDS_4),
                                 x0=models.RANGE_BEARING_TRUE_START)
-    for K in K_VALUES_4:
+    for K in sorted(k_values):
         rng, nees, lost = np.random.default_rng(SEED_FILTERS_4), np.empty((RUNS_4, T_4)), 0
         for r, (xs, ys) in enumerate(zip(sims.xs, sims.ys)):   # section 6's roughened SIR
-            res = particle.particle_filter(vehicle, ys, N_4, rng, ess_threshold=1.0, roughening=K)
+            res = particle.particle_filter(vehicle, ys, n_particles, rng, ess_threshold=1.0, roughening=K)
             nees[r] = gaussian.squared_mahalanobis(xs - res.means, res.covs, singular="inf")
             lost += np.linalg.norm(models.positions(vehicle, xs - res.means)[-1]) > LOST_METRES_4
             if lost > MAX_LOST_4:  # this K loses track, whatever the remaining runs do
@@ -344,10 +368,10 @@ _VERDICT_WORDS = {"overconfident": "overconfident", "above": "overconfident",   
 
 
 def exercise_4(answer, n_particles: int = N_4) -> Feedback:
-    """``answer_4 = (K_min, verdict)``; ``n_particles``: N_4 of the check cell."""
-    what = "answer_4"
-    if n_particles != N_4:
-        return _wrong(f"the check knows the experiment with N_4 = {N_4} particles (the answer cell gives it); "
+    """``answer_4 = (K_min, verdict)`` among K_values; ``n_particles``: N_4 of the check cell."""
+    what, k_values = "answer_4", tuple(sorted(float(k) for k in given("K_values", K_VALUES_4)))
+    if isinstance(n_particles, (bool, np.bool_)) or not isinstance(n_particles, numbers.Integral) or n_particles < 1:
+        return _wrong(f"the check cell passes N_4, the number of particles of the answer cell (a positive int); "
                       f"got n_particles = {n_particles!r}.")
     pair, bad = _pair(answer, what, "K_min", "verdict")
     if bad is not None:
@@ -355,27 +379,31 @@ def exercise_4(answer, n_particles: int = N_4) -> Feedback:
     first, second = pair
     if isinstance(first, str) and not isinstance(second, str) and first.strip().lower() in _VERDICT_WORDS:
         return _wrong(f"{what} is in the wrong order: first K_min, then the verdict.")
-    v, bad = _number(first, f"{what}[0], K_min,")
-    K = None if bad else next((K for K in K_VALUES_4 if math.isclose(v, K, abs_tol=1e-9)), None)
+    v, bad = _number(first, f"{what}[0] (K_min)")
+    K = None if bad else next((K for K in k_values if math.isclose(v, K, abs_tol=1e-9)), None)
     if K is None:
-        return bad or _wrong(f"{what}[0], K_min, must be one of the roughening constants {list(K_VALUES_4)}" + (
+        return bad or _wrong(f"{what}[0] (K_min) must be one of the roughening constants {list(k_values)}" + (
             " (a number of lost runs? give the roughening constant K itself)" if v.is_integer() else "") + ".")
-    K_ref, verdict_ref = _experiment_4()
+    K_ref, verdict_ref = _experiment_4(k_values, int(n_particles))
+    if math.isnan(K_ref):
+        return _wrong(f"{what}[0]: none of the constants {list(k_values)} keeps track (each loses more than "
+                      f"{MAX_LOST_4} of the {RUNS_4} runs): the statement's K_values need a larger one.")
     if K < K_ref:
-        return _wrong(f"{what}[0]: with K = {K} the jitter is too small to separate the copies: the filter loses "
+        return _wrong(f"{what}[0]: with K = {K:g} the jitter is too small to separate the copies: the filter loses "
                       f"more than {MAX_LOST_4} of the {RUNS_4} runs (final position error above "
                       f"{LOST_METRES_4:g} m). Did you count the runs kept instead of those lost, or the error at "
                       f"the first step instead of the last?")
     if K > K_ref:
-        return _wrong(f"{what}[0]: K = {K} keeps track, but a smaller K of the list also loses at most "
+        return _wrong(f"{what}[0]: K = {K:g} keeps track, but a smaller K of the list also loses at most "
                       f"{MAX_LOST_4} runs; the question asks for the smallest.")
     verdict = _VERDICT_WORDS.get(second.strip().lower()) if isinstance(second, str) else None
     if verdict is None:
-        return _wrong(f"{what}[1], the verdict, must be one of the words {list(VERDICTS_4)}, got "
+        return _wrong(f"{what}[1] (the verdict) must be one of the words {list(VERDICTS_4)}, got "
                       f"{repr(second) if isinstance(second, str) else type(second).__name__}.")
     if verdict != verdict_ref:
-        return _wrong(f"{what}[1]: look again at the median NEES of K = {K} over all runs and the steps "
-                      f"t >= {T_FROM_4} (np.median(nees[:, {T_FROM_4}:])). The NEES is the squared error in the "
+        return _wrong(f"{what}[1], the verdict, is not what the median NEES of K = {K:g} says: look again at it "
+                      f"over all runs and the steps t >= {T_FROM_4} (np.median(nees[:, {T_FROM_4}:])). The NEES is "
+                      f"the squared error in the "
                       f"filter's own standard deviations; for a consistent filter it is chi-squared with mean "
                       f"d = {NEES_DOF_4} and median {NEES_MEDIAN_4:.3f}, the value a median is compared with: "
                       f"above it, the errors are larger than the covariance claims (overconfident); below, the "
