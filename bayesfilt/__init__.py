@@ -11,6 +11,7 @@ Import it as ``bf`` and reach each concept through its module::
     bf.models     # state-space models and simulation      -- chapters 02-06
     bf.particle   # particle filters (SIS, bootstrap, SIR) -- chapters 05-06
     bf.resampling # resampling schemes                     -- chapter 06
+    bf.smoothing  # smoothers: RTS, grid, particles        -- chapter 07
     bf.plotting   # plots used by the notebooks
     bf.verify     # the one-line checks after each derivation
     bf.checks     # exercises that answer back              -- every chapter
@@ -25,7 +26,8 @@ import importlib
 
 __version__ = "0.1.0"
 
-_MODULES = ("bayes", "gaussian", "kalman", "ekf", "ukf", "models", "particle", "resampling", "plotting", "verify", "checks")
+_MODULES = ("bayes", "gaussian", "kalman", "ekf", "ukf", "models", "particle", "resampling", "plotting", "verify", "checks",
+            "smoothing")
 __all__ = list(_MODULES)
 
 

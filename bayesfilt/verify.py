@@ -75,7 +75,8 @@ from statistics import NormalDist
 import numpy as np
 
 __all__ = ["z_limit", "agree", "within", "mean_se", "mc_mean", "mc_moments", "mc_frequencies",
-           "bernstein_limits", "mc_bounded", "together", "report", "forget"]
+           "bernstein_limits", "mc_bounded", "quadratic_form_limits", "mc_quadratic_form",
+           "together", "report", "forget"]
 
 ALPHA = 1e-4
 """Largest probability that a Monte Carlo check fails on a correct result."""
@@ -515,6 +516,80 @@ def mc_bounded(label: str, draws, values, probs, k: int = 1) -> None:
                              f"outside with probability < {ALPHA / k:.0e}")
     _passed(label, f"{gap:+.3g} from the exact mean, inside Bernstein's limits "
                    f"[{low:.3g}, {high:.3g}] ({k} comparisons)")
+
+
+def quadratic_form_limits(weights, k: int = 1, alpha: float = ALPHA):
+    r"""Limits for a sum of weighted chi-square variables, minus its mean.
+
+    For :math:`Q = \sum_i a_i g_i^2` with independent standard normal
+    :math:`g_i` and weights :math:`a_i \ge 0` (e.g. a sum of NEES values of a
+    consistent linear-Gaussian filter: a quadratic form in Gaussian errors,
+    whose weights are the eigenvalues of the errors' whitened joint
+    covariance), Laurent & Massart (2000, Lemma 1) give
+
+    .. math:: P\big(Q - \textstyle\sum a_i \ge 2\|a\|\sqrt t + 2\max a_i\, t\big)
+       \le e^{-t}, \qquad P\big(Q - \textstyle\sum a_i \le -2\|a\|\sqrt t\big) \le e^{-t},
+
+    with no approximation: here :math:`e^{-t} = \alpha / (2k)`.
+
+    Parameters
+    ----------
+    weights : array_like, shape (K,)
+        The weights :math:`a_i \ge 0`.
+    k : int
+        Number of comparisons made at once (union bound).
+    alpha : float
+        Largest false-alarm probability of the ``k`` comparisons together.
+
+    Returns
+    -------
+    low, high : float
+        Limits on :math:`Q - \sum_i a_i`.
+    """
+    a = np.asarray(weights, dtype=float).ravel()
+    if a.size < 1 or not np.isfinite(a).all() or (a < 0).any():
+        raise ValueError(f"weights: expected a non-empty array of finite non-negative weights, got "
+                         f"shape {a.shape}" + (f", smallest {a.min():.3g}" if a.size else ""))
+    if int(k) != k or k < 1:
+        raise ValueError(f"k: expected a positive integer (comparisons), got {k!r}")
+    t = np.log(2 * k / alpha)
+    norm = float(np.sqrt(a @ a))
+    # Q - sum a >= 2 ||a|| sqrt(t) + 2 max(a) t  and  Q - sum a <= -2 ||a|| sqrt(t): each e^{-t}
+    return -2 * norm * np.sqrt(t), 2 * norm * np.sqrt(t) + 2 * float(a.max()) * t
+
+
+def mc_quadratic_form(label: str, value: float, weights, k: int = 1) -> None:
+    r"""Check an observed sum of weighted chi-square variables against its law.
+
+    Parameters
+    ----------
+    label : str
+        What is compared.
+    value : float
+        The observed :math:`Q = \sum_i a_i g_i^2` (e.g. the sum of all NEES
+        values of many independent runs).
+    weights : array_like, shape (K,)
+        Its weights :math:`a_i \ge 0` (:func:`quadratic_form_limits`); the
+        mean of ``value`` is their sum.
+    k : int
+        Number of comparisons made at once (union bound).
+
+    Notes
+    -----
+    A proven bound, with no normal approximation: skewed sums (a few runs of
+    large NEES) are covered, where a t-test on per-run averages fails a
+    little more often than it claims.
+    """
+    low, high = quadratic_form_limits(weights, k)
+    mean = float(np.sum(weights))
+    gap = float(value) - mean
+    if np.isnan(gap) or not low <= gap <= high:
+        raise AssertionError(f"{label}: the sum is {value:.6g} where its mean is {mean:.6g}, outside "
+                             f"the limits [{mean + low:.6g}, {mean + high:.6g}]; a correct result "
+                             f"falls outside with probability < {ALPHA / k:.0e}")
+    se = float(np.sqrt(2 * np.sum(np.asarray(weights, dtype=float) ** 2)))
+    _passed(label, f"{gap / se:+.1f} SE from its mean, inside the chi-square limits "
+                   f"[{low / se:.1f}, {high / se:+.1f}] SE ({k} comparisons)")
 
 
 def mc_frequencies(label: str, draws, probs) -> None:

@@ -606,8 +606,10 @@ def test_the_feedback_under_nbgrader_shows_the_diagnosis_and_no_library_frame(mo
     assert "Check: Not yet: kalman_gain, test input 1: the gain is transposed" in transposed
     assert "Check: Not yet: stopped after 0.3 s: kalman_gain did not return" in looped
     capsys.readouterr()
-    right = "bf.checks.ch02.exercise_3(np.linalg.inv([[1.2, 0.45], [0.45, 0.34]]) + [[4, 0], [0, 0]])"
-    assert _cell(right, ns, 3) == "" and capsys.readouterr().out == "Correct: info_3 matches the reference.\n"
+    right = "bf.checks.ch02.exercise_3(0.43 + 3.96 / 27.35 * 7.24, (0.87 - 3.96 ** 2 / 27.35) ** 0.5)"
+    assert _cell(right, ns, 3) == "" and capsys.readouterr().out == (
+        "Correct: mean_3 and sd_3 match the reference; compare them with the kept velocities of section 3's "
+        "figure.\n")
 
 
 
@@ -616,15 +618,14 @@ def test_the_feedback_under_nbgrader_shows_the_diagnosis_and_no_library_frame(mo
 
 def test_the_check_reads_the_notebooks_variables_only_from_a_notebook():
     """The caller's globals count when they are a notebook's (__main__), not a module's."""
-    K = np.array([[0.3], [0.2]])
-    P, C, R = np.array([[1.2, 0.45], [0.45, 0.34]]), np.array([[1.0, 0.0]]), np.array([[1.0]])
-    best = np.linalg.solve(C @ P @ C.T + R, C @ P).T
-    excess = (K - best) @ (C @ P @ C.T + R) @ (K - best).T
-    ns = {"bf": bf, "np": np, "P_1": P, "C_1": C, "R_1": R, "K_1": K, "excess_1": excess, "__name__": "__main__"}
-    exec("fb = bf.checks.ch02.exercise_1(excess_1)", ns)
+    m, Pi = np.array([4.76, 0.43]), np.array([[27.35, 3.96], [3.96, 0.87]])
+    mean, sd = m[1] + Pi[1, 0] / Pi[0, 0] * (10.0 - m[0]), (Pi[1, 1] - Pi[1, 0] ** 2 / Pi[0, 0]) ** 0.5
+    ns = {"bf": bf, "np": np, "m_3": m, "Pi_3": Pi, "position_3": 10.0, "mean_3": mean, "sd_3": sd,
+          "__name__": "__main__"}
+    exec("fb = bf.checks.ch02.exercise_3(mean_3, sd_3)", ns)
     correct(ns["fb"])
     ns["__name__"] = "some_module"                            # a module's globals are not read
-    exec("fb = bf.checks.ch02.exercise_1(excess_1)", ns)
+    exec("fb = bf.checks.ch02.exercise_3(mean_3, sd_3)", ns)
     wrong(ns["fb"])
 
 
@@ -640,12 +641,11 @@ def test_01_a_teacher_changes_the_number_of_steps():
             {"steps_5": 10})
 
 
-def test_02_a_teacher_changes_the_gain():
-    P, C, R = np.array([[1.2, 0.45], [0.45, 0.34]]), np.array([[1.0, 0.0]]), np.array([[1.0]])
-    S, best = C @ P @ C.T + R, np.linalg.solve(C @ P @ C.T + R, C @ P).T
-    excess = lambda K: (K - best) @ S @ (K - best).T  # noqa: E731
-    old, new = np.array([[0.5], [0.1]]), np.array([[0.3], [0.25]])
-    _edited(ch02.exercise_1, (excess(new),), (excess(old),), {"P_1": P, "C_1": C, "R_1": R, "K_1": new})
+def test_02_a_teacher_changes_the_measured_position():
+    m, Pi = np.array([4.76, 0.43]), np.array([[27.35, 3.96], [3.96, 0.87]])
+    sd = (Pi[1, 1] - Pi[1, 0] ** 2 / Pi[0, 0]) ** 0.5
+    at = lambda position: (m[1] + Pi[1, 0] / Pi[0, 0] * (position - m[0]), sd)  # noqa: E731
+    _edited(ch02.exercise_3, at(10.0), at(12.0), {"position_3": 10.0})
 
 
 def test_03_a_teacher_changes_the_kick_variance():

@@ -192,23 +192,16 @@ CH01 = [
 
 # --- chapter 02 -------------------------------------------------------------------------------
 
-P1, C1, R1, K1 = (np.array([[1.2, 0.45], [0.45, 0.34]]), np.array([[1.0, 0.0]]), np.array([[1.0]]),
-                  np.array([[0.5], [0.1]]))
+P1, C1, R1 = np.array([[1.2, 0.45], [0.45, 0.34]]), np.array([[1.0, 0.0]]), np.array([[1.0]])
 inv = np.linalg.inv
+# exercise 1: section 2's random walk by hand from 20 m, 3 m^2 with Q = 1, R = 2 and y = 23, 28.5 m, then the
+# steady state for Q = 1, R = 6 (P^2 - P - 6 = 0); exercise 3: section 3's cloud given the position 12 m
+MEANS_1, VARS_1, P_INF_1, K_INF_1 = np.array([22.0, 25.5]), np.array([4 / 3, 14 / 13]), 3.0, 1 / 3
+MEAN_3, SD_3 = 0.43 + 3.96 / 27.35 * (12 - 4.76), math.sqrt(0.87 - 3.96 ** 2 / 27.35)
 
 
 def gain(P, C, R):
     return np.linalg.solve(C @ P @ C.T + R, C @ P).T
-
-
-def joseph(P, C, R, K):
-    IKC = np.eye(len(P)) - K @ C
-    return IKC @ P @ IKC.T + K @ R @ K.T
-
-
-EXCESS = joseph(P1, C1, R1, K1) - joseph(P1, C1, R1, gain(P1, C1, R1))
-R3 = np.array([[0.25]])
-INFO = inv(P1) + C1.T @ inv(R3) @ C1
 
 
 def slow_gain(P, C, R):
@@ -242,14 +235,16 @@ def grid_means(a, variant="right"):
 
 
 CH02 = [
-    right(EXCESS), right((K1 - gain(P1, C1, R1)) @ (C1 @ P1 @ C1.T + R1) @ (K1 - gain(P1, C1, R1)).T),
-    right(EXCESS.astype(F32)),
-    Row("2.1", (-EXCESS,), INCORRECT, "has the wrong sign"),
-    Row("2.1", (P1 - K1 @ C1 @ P1 - joseph(P1, C1, R1, gain(P1, C1, R1)),), INCORRECT, "P - KCP"),
-    Row("2.1", ((np.eye(2) - K1 @ C1) @ P1 @ (np.eye(2) - K1 @ C1).T - joseph(P1, C1, R1, gain(P1, C1, R1)),),
-        INCORRECT, "misses the term K R K^T"),
-    Row("2.1", (joseph(P1, C1, R1, K1),), INCORRECT, "is P+(K) itself"),
-    Row("2.1", (float(EXCESS[0, 0]),), INCORRECT, "is a single number"),
+    right(MEANS_1, VARS_1, P_INF_1, K_INF_1), right([22, 25.5], [1.333, 1.077], 3, 0.333),
+    right(MEANS_1.astype(F32), VARS_1.astype(F32), F32(P_INF_1), F32(K_INF_1)),
+    Row("2.1", ([21.8, 24.3125], [1.2, 0.75], P_INF_1, K_INF_1), INCORRECT, "the prediction forgets Q"),
+    Row("2.1", ([20.0, 22.0], [4.0, 7 / 3], P_INF_1, K_INF_1), INCORRECT, "these are the predictions"),
+    Row("2.1", (MEANS_1, np.sqrt(VARS_1), P_INF_1, K_INF_1), INCORRECT, "these are standard deviations"),
+    Row("2.1", (VARS_1, MEANS_1, P_INF_1, K_INF_1), INCORRECT, "holds the variances; swap"),
+    Row("2.1", (MEANS_1, VARS_1, 2.0, K_INF_1), INCORRECT, "this is the steady variance after the update"),
+    Row("2.1", (MEANS_1, VARS_1, 6.0, K_INF_1), INCORRECT, "this is twice P_inf"),
+    Row("2.1", (MEANS_1, VARS_1, P_INF_1, 0.25), INCORRECT, "the gain uses the prediction's variance"),
+    Row("2.1", (MEANS_1, VARS_1, P_INF_1, 0.75), INCORRECT, "the gain weighs the prediction against"),
     right(gain), right(lambda P, C, R: P @ C.T @ inv(C @ P @ C.T + R)), right(gain_float32),
     Row("2.2", (lambda P, C, R: gain(P, C, R).T,), INCORRECT, "the gain is transposed"),
     Row("2.2", (lambda P, C, R: P @ C.T @ inv(C @ P @ C.T),), INCORRECT, "S is computed without R"),
@@ -261,14 +256,13 @@ CH02 = [
     Row("2.2", (lambda P, C, R: bf.kalman.update(np.zeros(len(P)), P, np.zeros(len(C)), C, R).gain,),
         INCORRECT, "uses bf.kalman, which the statement"),
     Row("2.2", (slow_gain,), INCORRECT, "stopped after 0.3 s", None, 0.3),
-    right(INFO), right(INFO.tolist()),
-    Row("2.3", (inv(INFO),), INCORRECT, "is the posterior covariance"),
-    Row("2.3", (C1.T @ inv(R3) @ C1,), INCORRECT, "is the measurement's precision"),
-    Row("2.3", (inv(P1),), INCORRECT, "is the precision of the prediction"),
-    Row("2.3", (P1 + C1.T @ inv(R3) @ C1,), INCORRECT, "you added the covariance P"),
-    Row("2.3", (inv(P1) + C1.T @ R3 @ C1,), INCORRECT, "R is not inverted"),
-    Row("2.3", (inv(P1 + C1.T @ R3 @ C1),), INCORRECT, "you inverted the sum P + C^T R C"),
-    Row("2.3", (inv(P1) + C1.T @ inv(R3),), INCORRECT, "info_3 is not symmetric"),
+    right(MEAN_3, SD_3), right(round(MEAN_3, 3), round(SD_3, 3)),
+    Row("2.3", (0.43, SD_3), INCORRECT, "this is the mean velocity before anything"),
+    Row("2.3", (0.43 + 3.96 / 28.35 * (12 - 4.76), SD_3), INCORRECT, "this is the slope for a noisy position"),
+    Row("2.3", (0.43 + 3.96 / 0.87 * (12 - 4.76), SD_3), INCORRECT, "the slope is Pi_21 / Pi_11"),
+    Row("2.3", (MEAN_3, SD_3 ** 2), INCORRECT, "this is the variance Pi_22 - Pi_21^2 / Pi_11"),
+    Row("2.3", (MEAN_3, math.sqrt(0.87)), INCORRECT, "this is the velocity's spread before"),
+    Row("2.3", (MEAN_3, math.sqrt(0.87 + 3.96 ** 2 / 27.35)), INCORRECT, "learning the position removes"),
     right(0, "best linear estimate", grid_means), right(0, "BLUE"), right(0, "Best-linear estimate"),
     Row("2.4", (1, "best linear estimate"), INCORRECT, "count the steps from 1"),
     Row("2.4", (0, "conditional mean"), INCORRECT, "meaning_4 is not the right option"),

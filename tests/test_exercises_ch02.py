@@ -1,15 +1,18 @@
 """Tests of bayesfilt.checks.ch02, the checks of the exercises of chapter 02.
 
 For every exercise: the reference answer, computed here independently of the
-check (closed-form numpy, a plain-numpy grid filter, a Monte Carlo regression),
-is accepted; plausible wrong answers are rejected, each with its own diagnosis;
-None and NotImplementedError mean "not attempted yet"; garbage never raises.
-The inputs of the notebook's statements are the module's constants.
+check (exact fractions, closed-form numpy, a plain-numpy grid filter, Monte
+Carlo regressions), is accepted; plausible wrong answers are rejected, each with
+its own diagnosis, and no message shows the reference; None and
+NotImplementedError mean "not attempted yet"; garbage never raises; a teacher's
+edit of the statement's numbers (the notebook's variables) is honoured. The
+inputs of the notebook's statements are the module's constants.
 """
 
 from __future__ import annotations
 
 import json
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -32,13 +35,7 @@ NOTEBOOK = ROOT / "notebooks" / "02_kalman_derivation.ipynb"
 P = np.array([[1.2, 0.45], [0.45, 0.34]])
 C = np.array([[1.0, 0.0]])
 R = np.array([[1.0]])
-K = np.array([[0.5], [0.1]])
 inv = np.linalg.inv
-
-
-def joseph(P, C, R, K):
-    IKC = np.eye(P.shape[0]) - K @ C
-    return IKC @ P @ IKC.T + K @ R @ K.T
 
 
 def gain_by_inverse(P, C, R):
@@ -79,86 +76,134 @@ def _answer_cells() -> dict[int, str]:
 def test_the_notebook_states_the_numbers_of_the_module():
     cells = _answer_cells()
     assert sorted(cells) == [1, 2, 3, 4, 5]
-    given_1, given_3 = _given(cells[1]), _given(cells[3])
-    np.testing.assert_array_equal(given_1["P_1"], ch02.P_EX)
-    np.testing.assert_array_equal(given_1["C_1"], ch02.C_EX)
-    np.testing.assert_array_equal(given_1["R_1"], ch02.R_EX)
-    np.testing.assert_array_equal(given_1["K_1"], ch02.K_1)
-    np.testing.assert_array_equal(given_3["P_3"], ch02.P_EX)
-    np.testing.assert_array_equal(given_3["C_3"], ch02.C_EX)
-    np.testing.assert_array_equal(given_3["R_3"], ch02.R_3)
+    given_1, given_3, given_4 = _given(cells[1]), _given(cells[3]), _given(cells[4].split("def ")[0])
+    assert (given_1["xhat_00_1"], given_1["P_00_1"]) == (ch02.XHAT_00_1, ch02.P_00_1)
+    assert (given_1["Q_1"], given_1["R_1"]) == (ch02.Q_1, ch02.R_1)
+    np.testing.assert_array_equal(given_1["ys_1"], ch02.YS_1)
+    assert (given_1["Q_new_1"], given_1["R_new_1"]) == (ch02.Q_NEW_1, ch02.R_NEW_1)
+    np.testing.assert_array_equal(given_3["m_3"], ch02.M_3)
+    np.testing.assert_array_equal(given_3["Pi_3"], ch02.PI_3)
+    assert given_3["position_3"] == ch02.POSITION_3
+    assert given_4["a_4"] == ch02.HALF_WIDTH_4 == np.sqrt(1.5)
     text = "\n".join(source for source, kind in _cells() if kind == "markdown")
-    assert "a = \\sqrt{1.5}" in text and "0.9\\,x_{\\mathrm{prev}}" in text and "D = 0.2" in text
-    assert ch02.HALF_WIDTH_4 == np.sqrt(1.5) and ch02.D_5[0, 0] == 0.2 and ch02.R_3[0, 0] == 0.25
-
-
-def test_solution_blocks_hold_only_defs_and_answer_assignments():
-    """What tools/make_student_edition.py can stub: top-level defs and assignments only."""
-    answers = {1: {"excess_1"}, 2: {"kalman_gain"}, 3: {"info_3"},
-               4: {"grid_means_uniform", "agree_4", "meaning_4"}, 5: {"correlated_gain"}}
-    for n, source in _answer_cells().items():
-        assert solution_names(source) == answers[n], n
-
-
-def test_check_cells_are_a_single_call():
-    calls = [source for source, kind in _cells() if kind == "code" and "bf.checks.ch02" in source]
-    # exercise 4's check takes grid_means_uniform too once issue 13's notebook changes are in
-    ex4 = {"bf.checks.ch02.exercise_4(agree_4, meaning_4)",
-           "bf.checks.ch02.exercise_4(agree_4, meaning_4, grid_means_uniform)"}
-    assert calls[3] in ex4, calls[3]
-    assert calls[:3] + calls[4:] == ["bf.checks.ch02.exercise_1(excess_1)",
-                                     "bf.checks.ch02.exercise_2(kalman_gain)",
-                                     "bf.checks.ch02.exercise_3(info_3)",
-                                     "bf.checks.ch02.exercise_5(correlated_gain)"]
+    for stated in ["Q = 1\\ \\mathrm{m^2}$ and $R = 2\\ \\mathrm{m^2}", "\\mathcal N(20\\ \\mathrm m,\\ 3\\ \\mathrm{m^2})",
+                   "$y_1 = 23$ m and $y_2 = 28.5$ m", "$Q = 1\\ \\mathrm{m^2}$ and $R = 6\\ \\mathrm{m^2}$",
+                   "m_8 = [4.76\\ \\mathrm m,\\ 0.43\\ \\mathrm{m/step}]^T",
+                   "\\begin{bmatrix}27.35 & 3.96\\\\ 3.96 & 0.87\\end{bmatrix}", "position is exactly 12 m",
+                   "P = \\begin{bmatrix}1.2 & 0.45\\\\ 0.45 & 0.34\\end{bmatrix}",
+                   "a = \\sqrt{1.5}", "0.9\\,x_{\\mathrm{prev}}", "D = 0.2"]:
+        assert stated in text, stated
+    assert ch02.D_5[0, 0] == 0.2 and ch02.P_EX[0, 1] == 0.45 and ch02.R_EX[0, 0] == 1.0
 
 
 def test_the_given_numbers_are_read_only():
-    with pytest.raises(ValueError):
-        ch02.P_EX[0, 0] = 5.0
+    for frozen in (ch02.P_EX, ch02.YS_1, ch02.PI_3, ch02.M_3):
+        with pytest.raises(ValueError):
+            frozen[0] = 5.0
 
 
 # ---------------------------------------------------------------------------
-# Exercise 1: P+(K) - P+(K*)
+# Exercise 1: the scalar filter by hand, then its steady state
 # ---------------------------------------------------------------------------
 
-K_STAR = gain_by_inverse(P, C, R)
-S = C @ P @ C.T + R
-EXCESS = joseph(P, C, R, K) - joseph(P, C, R, K_STAR)
+def by_hand(x, P, Q, R, ys, forget_Q=False, K_times_P=False, swap_gain=False, predictions=False):
+    """Predict, update, ... in exact fractions (the mistakes as switches)."""
+    x, P, Q, R = map(Fraction, (x, P, Q, R))
+    means, variances = [], []
+    for y in map(Fraction, ys):
+        P = P if forget_Q else P + Q
+        if predictions:
+            means.append(x)
+            variances.append(P)
+        K = P / (P + R)
+        x = x + (1 - K if swap_gain else K) * (y - x)
+        P = K * P if K_times_P else (1 - K) * P
+        if not predictions:
+            means.append(x)
+            variances.append(P)
+    return np.array(means, dtype=float), np.array(variances, dtype=float)
 
 
-def test_exercise_1_accepts_both_sides_of_the_identity():
-    np.testing.assert_allclose((K - K_STAR) @ S @ (K - K_STAR).T, EXCESS, atol=1e-14)
-    correct(ch02.exercise_1(EXCESS))
-    correct(ch02.exercise_1((K - K_STAR) @ S @ (K - K_STAR).T))
-    correct(ch02.exercise_1(EXCESS.tolist()))
+STATEMENT_1 = (20, 3, 1, 2, [23, Fraction(57, 2)])
+MEANS_1, VARS_1 = by_hand(*STATEMENT_1)
+# the new Q = 1, R = 6: P = P R / (P + R) + Q, i.e. P^2 - P - 6 = (P - 3)(P + 2) = 0
+P_INF_1, K_INF_1 = 3.0, 1.0 / 3.0
+RIGHT_1 = (MEANS_1, VARS_1, P_INF_1, K_INF_1)
 
 
-@pytest.mark.parametrize("answer, phrases", [
-    (P - K @ C @ P - joseph(P, C, R, K_STAR), ["P - KCP", "Joseph form"]),
-    ((np.eye(2) - K @ C) @ P @ (np.eye(2) - K @ C).T - joseph(P, C, R, K_STAR), ["K R K^T"]),
-    ((K - P @ C.T / 1.2) @ (C @ P @ C.T) @ (K - P @ C.T / 1.2).T, ["R left out"]),
-    ((K - K_STAR) @ (C @ P @ C.T) @ (K - K_STAR).T, ["left R out"]),
-    (float(S[0, 0] * np.sum((K - K_STAR) ** 2)), ["single number", "outer product"]),
-    (-EXCESS, ["wrong sign", "positive semi-definite"]),
-    (joseph(P, C, R, K), ["P+(K) itself"]),
+def hides_1(fb):
+    _hides(fb, MEANS_1, VARS_1, [P_INF_1, K_INF_1], digits=3, integers=False)
+
+
+def test_exercise_1_reference_by_hand():
+    np.testing.assert_array_equal(MEANS_1, [22.0, 25.5])               # 20 + (2/3) 3, 22 + (7/13) 6.5
+    np.testing.assert_allclose(VARS_1, [4 / 3, 14 / 13], rtol=1e-15)   # (1 - 2/3) 4, (6/13) (7/3)
+    assert P_INF_1 == P_INF_1 * 6 / (P_INF_1 + 6) + 1 and K_INF_1 == P_INF_1 / (P_INF_1 + 6)
+    correct(ch02.exercise_1(*RIGHT_1))
+    correct(ch02.exercise_1(list(MEANS_1), tuple(VARS_1), np.float32(P_INF_1), np.array([K_INF_1])))
+    correct(ch02.exercise_1(np.round(MEANS_1, 3), np.round(VARS_1, 3), 3, 0.333))   # 3 decimals suffice
+
+
+@pytest.mark.parametrize("answers, phrases", [
+    (by_hand(*STATEMENT_1, forget_Q=True) + (P_INF_1, K_INF_1), ["means_1 and vars_1", "forgets Q"]),
+    ((MEANS_1, by_hand(*STATEMENT_1, forget_Q=True)[1], P_INF_1, K_INF_1), ["vars_1:", "forgets Q",
+                                                                            "means_1: correct"]),
+    (by_hand(*STATEMENT_1, predictions=True) + (P_INF_1, K_INF_1), ["the predictions"]),
+    (by_hand(*STATEMENT_1, swap_gain=True) + (P_INF_1, K_INF_1), ["means_1", "not 1 - K_t of the way"]),
+    (by_hand(*STATEMENT_1, K_times_P=True) + (P_INF_1, K_INF_1), ["(1 - K_t) P_{t|t-1}"]),
+    ((MEANS_1, np.sqrt(VARS_1), P_INF_1, K_INF_1), ["standard deviations"]),
+    ((VARS_1, MEANS_1, P_INF_1, K_INF_1), ["swap means_1 and vars_1"]),
+    ((MEANS_1, [VARS_1[0], VARS_1[0] * 2 / (VARS_1[0] + 2)], P_INF_1, K_INF_1), ["without adding Q"]),
+    ((MEANS_1, [VARS_1[0], 1.5], P_INF_1, K_INF_1), ["step 1 right but not step 2"]),
+    ((MEANS_1[:1], VARS_1, P_INF_1, K_INF_1), ["must hold 2 numbers"]),
+    ((MEANS_1, np.append(VARS_1, 1.0), P_INF_1, K_INF_1), ["wrong shape"]),
+    ((MEANS_1, VARS_1, 2.0, K_INF_1), ["P_inf_1", "after the update", "P_{t|t-1}"]),          # P R / (P + R)
+    ((MEANS_1, VARS_1, (6 + np.sqrt(60)) / 2, K_INF_1), ["Q and R are swapped"]),
+    ((MEANS_1, VARS_1, 6.0, K_INF_1), ["twice P_inf"]),
+    ((MEANS_1, VARS_1, -2.0, K_INF_1), ["negative root"]),
+    ((MEANS_1, VARS_1, (2 + np.sqrt(28)) / 2, K_INF_1), ["section 2's numbers"]),
+    ((MEANS_1, VARS_1, P_INF_1, 0.25), ["K_inf_1", "not P_{t|t}"]),                          # 2 / (2 + 6)
+    ((MEANS_1, VARS_1, P_INF_1, 0.75), ["with R, not Q"]),
+    ((MEANS_1, VARS_1, P_INF_1, 2 / 3), ["1 - K_inf"]),
+    ((MEANS_1, VARS_1, P_INF_1, 0.5), ["not by R alone"]),
+    ((MEANS_1, np.round(VARS_1, 2), P_INF_1, K_INF_1), ["rounded to 2 decimals"]),
+    ((MEANS_1, VARS_1, P_INF_1, 0.4), ["K_inf_1 is too large"]),
 ])
-def test_exercise_1_diagnoses(answer, phrases):
-    fb = ch02.exercise_1(answer)
+def test_exercise_1_diagnoses(answers, phrases):
+    fb = ch02.exercise_1(*answers)
     wrong(fb, *phrases)
-    hides(fb, EXCESS)
+    hides_1(fb)
 
 
 def test_exercise_1_not_attempted_and_garbage():
-    not_attempted(ch02.exercise_1(None))
+    not_attempted(ch02.exercise_1(None, None, None, None))
+    fb = ch02.exercise_1(MEANS_1, None, P_INF_1, K_INF_1)
+    assert fb.status == NOT_ATTEMPTED and "vars_1 is still None" in fb.message, fb
     for garbage in GARBAGE:
-        fb = ch02.exercise_1(garbage)
+        fb = ch02.exercise_1(garbage, garbage, garbage, garbage)
         assert fb.status == INCORRECT, (garbage, fb)
-    wrong(ch02.exercise_1(EXCESS.T.reshape(1, 4)), "wrong shape")
+        assert ch02.exercise_1(MEANS_1, VARS_1, garbage, K_INF_1).status == INCORRECT, garbage
+
+
+def test_exercise_1_honours_a_teachers_numbers():
+    """Section 2's own step (10 m, 4 m^2, Q = 2, R = 3, y_1 = 13 m) and a second reading of 11 m;
+    for the steady state Q = 2 and R = 4: P^2 - 2 P - 8 = (P - 4)(P + 2), so P_inf = 4, K_inf = 1/2."""
+    edited = {"xhat_00_1": 10.0, "P_00_1": 4.0, "Q_1": 2.0, "R_1": 3.0, "ys_1": np.array([13.0, 11.0]),
+              "Q_new_1": 2.0, "R_new_1": 4.0}
+    means, variances = by_hand(10, 4, 2, 3, [13, 11])
+    assert means[0] == 12.0 and variances[0] == 2.0                   # section 2's numbers
+    correct(ch02.exercise_1(means, variances, 4.0, 0.5, namespace=edited))
+    assert ch02.exercise_1(*RIGHT_1, namespace=edited).status == INCORRECT
+    wrong(ch02.exercise_1(means, variances, 2.0, 0.5, namespace=edited), "after the update")   # 4 * 4 / 8
+    correct(ch02.exercise_1(*RIGHT_1))
 
 
 # ---------------------------------------------------------------------------
 # Exercise 2: kalman_gain(P, C, R)
 # ---------------------------------------------------------------------------
+
+K_STAR = gain_by_inverse(P, C, R)       # the gain of the statement's first input
+
 
 def test_exercise_2_accepts_the_gain_by_inverse_and_by_solve():
     correct(ch02.exercise_2(gain_by_inverse))
@@ -221,38 +266,84 @@ def test_exercise_2_not_attempted_and_garbage():
 
 
 # ---------------------------------------------------------------------------
-# Exercise 3: the posterior precision
+# Exercise 3: E(velocity | position = 12 m) and its standard deviation in section 3's cloud
 # ---------------------------------------------------------------------------
 
-R3 = np.array([[0.25]])
-INFO = inv(P) + C.T @ inv(R3) @ C
+M3, PI3 = np.array([4.76, 0.43]), np.array([[27.35, 3.96], [3.96, 0.87]])
 
 
-def test_exercise_3_accepts_the_posterior_precision():
-    K3 = gain_by_inverse(P, C, R3)
-    np.testing.assert_allclose(inv(P - K3 @ C @ P), INFO, rtol=1e-12)  # the two forms agree
-    correct(ch02.exercise_3(INFO))
-    correct(ch02.exercise_3(inv(P - K3 @ C @ P)))
+def conditional(m, Pi, position):
+    """The line of section 3 and the spread about it: E(v | p) and sd(v | p), closed form."""
+    slope = Pi[1, 0] / Pi[0, 0]
+    return m[1] + slope * (position - m[0]), float(np.sqrt(Pi[1, 1] - Pi[1, 0] * slope))
 
 
-@pytest.mark.parametrize("answer, phrases", [
-    (inv(INFO), ["posterior covariance", "inverse"]),
-    (C.T @ inv(R3) @ C, ["measurement's precision", "alone"]),
-    (inv(P), ["precision of the prediction", "alone"]),
-    (P + C.T @ inv(R3) @ C, ["added the covariance P"]),
-    (inv(P) + C.T @ R3 @ C, ["R is not inverted"]),
-    (inv(P) - C.T @ inv(R3) @ C, ["cannot remove"]),
+MEAN_3, SD_3 = conditional(M3, PI3, 12.0)
+
+
+def test_exercise_3_reference_by_a_monte_carlo_regression():
+    """Regress the velocities of 400 000 draws of N(m_8, Pi_8) on their positions: the line at 12 m
+    and the spread of the residuals are the reference (within 5 standard errors)."""
+    rng = np.random.default_rng(33)
+    draws = rng.multivariate_normal(M3, PI3, 400_000)
+    design = np.column_stack([np.ones(len(draws)), draws[:, 0] - 12.0])   # intercept = E(v | p = 12)
+    coef, *_ = np.linalg.lstsq(design, draws[:, 1], rcond=None)
+    resid_sd = np.std(draws[:, 1] - design @ coef)
+    se_mean = resid_sd * np.sqrt(np.linalg.inv(design.T @ design)[0, 0])
+    assert abs(coef[0] - MEAN_3) < 5 * se_mean, (coef, MEAN_3, se_mean)
+    assert abs(resid_sd - SD_3) < 5 * SD_3 / np.sqrt(2 * len(draws)), (resid_sd, SD_3)
+    assert abs(MEAN_3 - 1.478) < 1e-3 and abs(SD_3 - 0.545) < 1e-3      # near section 3's 1.45 ± 0.54
+    correct(ch02.exercise_3(MEAN_3, SD_3))
+    correct(ch02.exercise_3(np.float32(MEAN_3), np.array([SD_3])))
+    correct(ch02.exercise_3(round(MEAN_3, 3), round(SD_3, 3)))
+    rho = PI3[0, 1] / np.sqrt(PI3[0, 0] * PI3[1, 1])                     # the same in correlations
+    correct(ch02.exercise_3(M3[1] + rho * np.sqrt(PI3[1, 1] / PI3[0, 0]) * (12 - M3[0]),
+                            np.sqrt(PI3[1, 1] * (1 - rho**2))))
+
+
+@pytest.mark.parametrize("answers, phrases", [
+    ((M3[1], SD_3), ["mean_3", "before anything is learnt", "sd_3: correct"]),
+    ((M3[1] + PI3[1, 0] / PI3[0, 0] * 12.0, SD_3), ["position - m_1"]),
+    ((M3[1] + PI3[1, 0] / PI3[1, 1] * (12.0 - M3[0]), SD_3), ["Pi_21 / Pi_11"]),
+    ((M3[1] + PI3[1, 0] / (PI3[0, 0] + 1.0) * (12.0 - M3[0]), SD_3), ["noisy position", "known exactly"]),
+    ((M3[1] + PI3[0, 1] / np.sqrt(PI3[0, 0] * PI3[1, 1]) * (12.0 - M3[0]), SD_3), ["correlation is no slope"]),
+    ((MEAN_3, SD_3 ** 2), ["sd_3", "the variance", "square root"]),
+    ((MEAN_3, np.sqrt(PI3[1, 1])), ["before anything is learnt", "narrows"]),
+    ((MEAN_3, np.sqrt(PI3[1, 1] + PI3[1, 0] ** 2 / PI3[0, 0])), ["cannot add"]),
+    ((MEAN_3, np.sqrt(PI3[0, 0] - PI3[1, 0] ** 2 / PI3[1, 1])), ["position given the velocity"]),
+    ((MEAN_3, np.sqrt(PI3[1, 1] - PI3[1, 0] ** 2 / (PI3[0, 0] + 1.0))), ["noisy position"]),
+    ((MEAN_3, np.sqrt(PI3[1, 1]) * (1 - PI3[1, 0] ** 2 / (PI3[0, 0] * PI3[1, 1]))), ["sqrt(1 - rho^2)"]),
+    ((round(MEAN_3, 2), SD_3), ["rounded to 2 decimals"]),
+    ((MEAN_3 + 0.1, SD_3), ["mean_3 is too large"]),
 ])
-def test_exercise_3_diagnoses(answer, phrases):
-    fb = ch02.exercise_3(answer)
+def test_exercise_3_diagnoses(answers, phrases):
+    fb = ch02.exercise_3(*answers)
     wrong(fb, *phrases)
-    hides(fb, INFO)
+    _hides(fb, [MEAN_3, SD_3], digits=3)
 
 
 def test_exercise_3_not_attempted_and_garbage():
-    not_attempted(ch02.exercise_3(None))
+    not_attempted(ch02.exercise_3(None, None))
+    fb = ch02.exercise_3(MEAN_3, None)
+    assert fb.status == NOT_ATTEMPTED and "mean_3: correct" in fb.message, fb
     for garbage in GARBAGE:
-        assert ch02.exercise_3(garbage).status == INCORRECT, garbage
+        assert ch02.exercise_3(garbage, garbage).status == INCORRECT, garbage
+        assert ch02.exercise_3(MEAN_3, garbage).status == INCORRECT, garbage
+
+
+def test_exercise_3_honours_a_teachers_numbers():
+    """The exact m_8 and Pi_8 of the recursion (section 12) in place of the printed cloud's, and a
+    position of 10 m."""
+    A = np.array([[1.0, 1.0], [0.0, 0.98]])
+    m, Pi = np.array([1.0, 0.5]), np.diag([1.0, 0.25])
+    for _ in range(8):
+        m, Pi = A @ m, A @ Pi @ A.T + np.diag([0.0, 0.1])
+    edited = {"m_3": m, "Pi_3": Pi, "position_3": 10.0}
+    right = conditional(m, Pi, 10.0)
+    correct(ch02.exercise_3(*right, namespace=edited))
+    assert ch02.exercise_3(MEAN_3, SD_3, namespace=edited).status == INCORRECT
+    wrong(ch02.exercise_3(right[0], right[1] ** 2, namespace=edited), "the variance")
+    correct(ch02.exercise_3(MEAN_3, SD_3))
 
 
 # ---------------------------------------------------------------------------
@@ -387,9 +478,9 @@ def test_exercise_5_not_attempted_and_garbage():
 
 @pytest.mark.filterwarnings("error")
 def test_checks_themselves_raise_no_warning_on_garbage():
-    for check in (ch02.exercise_1, ch02.exercise_3):
-        for garbage in GARBAGE:
-            check(garbage)
+    for garbage in GARBAGE:
+        ch02.exercise_1(garbage, garbage, garbage, garbage)
+        ch02.exercise_3(garbage, garbage)
     ch02.exercise_2(lambda P, C, R: np.full((P.shape[0], C.shape[0]), 1e308))
     ch02.exercise_5(lambda P, C, R, G, D: np.full((P.shape[0], C.shape[0]), -1e308))
     ch02.exercise_4(1e308, "neither")

@@ -3,21 +3,26 @@
 Three groups:
 
 * the pattern, in every chapter notebook: solution markers that pair up in
-  one cell, every answer cell followed by its check cell, every
-  ``### Exercise N`` heading with its kind line and its answer cell, check
-  cells that show "Correct" in the repository, and at least three exercises
-  per chapter;
-* the edition made from the real chapters: no solution code left, every
-  other cell unchanged, and every student notebook runs top to bottom with
-  each check saying "Not attempted yet" (slow: it executes every chapter);
+  one cell (a code cell, or a manually graded markdown answer), every answer
+  cell followed by its check cell and, where the exercise asks "why?", by its
+  written answer (statement, answer, check, [why]), every ``### Exercise N``
+  heading with its kind line and its answer cell, check cells that show
+  "Correct" in the repository, at least three exercises per chapter, and
+  INSTRUCTORS.md's tables and rubrics equal to the notebooks';
+* the edition made from the real chapters: equal to nbgrader's own
+  ``ClearSolutions`` with the course's ``nbgrader_config.py``, no solution
+  code left, every other cell unchanged, and every student notebook's
+  exercises run with each check saying "Not attempted yet";
 * the tool itself, on small synthetic cells and notebooks: the stubs, the
-  errors on malformed markers, the refusals (a non-empty folder without
-  ``--force``; the course's ``notebooks/`` folder, also through a relative
-  path or a symbolic link) and byte-identical output from run to run.
+  errors on malformed markers and on answer cells nbgrader's stub would
+  break, the refusals (a non-empty folder without ``--force``; the course's
+  ``notebooks/`` folder, also through a relative path or a symbolic link) and
+  byte-identical output from run to run.
 
 The references are independent of the tool where it matters: the stubs are
-compared with hand-written expected text, and the solution lines are found
-by a scanner written here, not by the tool's parser.
+compared with hand-written expected text and with nbgrader's preprocessor,
+and the solution lines are found by a scanner written here, not by the tool's
+parser.
 """
 
 from __future__ import annotations
@@ -77,6 +82,15 @@ def _marker_lines(source: str) -> list[tuple[int, str]]:
 
 def _is_answer_cell(cell) -> bool:
     return cell.cell_type == "code" and any(m == BEGIN for _, m in _marker_lines(cell.source))
+
+
+def _is_why_cell(cell) -> bool:
+    """A manually graded written answer: markdown that nbgrader marks as a solution."""
+    return cell.cell_type == "markdown" and bool(cell.metadata.get("nbgrader", {}).get("solution"))
+
+
+WHY_METADATA = {"grade": True, "solution": True, "locked": False, "schema_version": 3,
+                "task": False}
 
 
 def _solution_blocks(source: str) -> list[list[str]]:
@@ -155,8 +169,9 @@ def test_solution_markers_pair_up_in_each_cell(chapter):
     for index, cell in enumerate(_read(chapter).cells):
         markers = _marker_lines(cell.source)
         where = f"{chapter.name} cell {index + 1}"
-        if cell.cell_type != "code":
-            assert not markers, f"{where}: solution markers belong in code cells only"
+        if cell.cell_type != "code" and not _is_why_cell(cell):
+            assert not markers, (f"{where}: solution markers belong in code cells and in "
+                                 f"manually graded markdown answers only")
             continue
         for k, marker in markers:
             assert marker in (BEGIN, END), f"{where} line {k + 1}: marker not alone on its line: {marker!r}"
@@ -185,6 +200,41 @@ def test_every_answer_cell_is_followed_by_its_check_cell(chapter):
                       f"bf.checks.ch{_chapter(chapter)}.exercise_N(...), got {last!r}")
         assert number is not None and int(call.group(1)) == number, (
             f"{where}: the check {last!r} does not match the heading ### Exercise {number} above it")
+
+
+def test_written_answers_follow_their_check_in_the_pattern(chapter):
+    """Statement, answer, check, [why]: a "why?" cell comes right after its exercise's check
+    cell, with nbgrader's metadata of a manually graded answer, its question above the markers."""
+    nb = _read(chapter)
+    for index, cell in enumerate(nb.cells):
+        if not _is_why_cell(cell):
+            continue
+        where = f"{chapter.name} cell {index + 1}"
+        number = _exercise_of(nb, index)
+        before = nb.cells[index - 1]
+        assert before.cell_type == "code" and CHECK_CALL.search(before.source), (
+            f"{where}: a written answer comes right after its exercise's check cell")
+        meta = dict(cell.metadata["nbgrader"])
+        assert meta.pop("grade_id", None) == f"ch{_chapter(chapter)}-ex{number}-why", (where, meta)
+        points = meta.pop("points", None)
+        assert isinstance(points, (int, float)) and points > 0, (where, points)
+        assert meta == WHY_METADATA, (where, meta)
+        lines = cell.source.splitlines()
+        begin = [k for k, line in enumerate(lines) if line.strip() == BEGIN]
+        assert len(begin) == 1 and begin[0] > 0 and lines[0].startswith("**Why?**"), (
+            f"{where}: the question ('**Why?** ...') above one pair of markers")
+        assert re.search(r"\*Rubric\.\*", cell.source), f"{where}: the rubric is missing"
+
+
+def test_a_written_answer_stays_in_the_exercise_table(chapter):
+    """Its points count for its exercise in the table of INSTRUCTORS.md (graded by hand)."""
+    nb = _read(chapter)
+    whys = [c for c in nb.cells if _is_why_cell(c)]
+    found = mse.exercises(nb)
+    assert sum(e["manual"] for e in found) == sum(c.metadata.nbgrader.get("points", 0) for c in whys)
+    checks = [c for c in nb.cells if c.cell_type == "code" and CHECK_CALL.search(c.source)]
+    assert sum(e["points"] for e in found) == sum(c.metadata.get("nbgrader", {}).get("points", 0)
+                                                  for c in checks)
 
 
 def test_every_exercise_heading_has_its_kind_line_and_an_answer_cell(chapter):
@@ -233,22 +283,54 @@ def edition(tmp_path_factory) -> Path:
     return out
 
 
+def test_student_edition_equals_nbgrader_clear_solutions(edition):
+    """nbgrader's own ClearSolutions, configured by the course's nbgrader_config.py, gives every
+    cell the source the student edition gives it: one stub for the website, the edition and the
+    nbgrader release."""
+    from nbgrader.preprocessors import ClearSolutions
+    from traitlets.config.loader import PyFileConfigLoader
+
+    config = PyFileConfigLoader("nbgrader_config.py", path=str(ROOT)).load_config()
+    assert (mse.CODE_STUB, mse.TEXT_STUB) == (config.ClearSolutions.code_stub["python"],
+                                              config.ClearSolutions.text_stub)
+    for path in CHAPTERS:
+        released, _ = ClearSolutions(config=config).preprocess(_read(path), {})
+        student = _read(edition / path.name)
+        assert [c.source for c in student.cells] == [c.source for c in released.cells], path.name
+
+
+def test_the_guide_shows_the_notebooks_tables_and_rubrics():
+    """INSTRUCTORS.md's generated regions are what the notebooks give now (make guide)."""
+    text = (ROOT / "INSTRUCTORS.md").read_text(encoding="utf-8")
+    regions = mse.generated_regions(text)
+    assert set(regions) == {"exercises", "rubrics"}, sorted(regions)
+    assert regions["exercises"] == mse.exercise_table(), (
+        "INSTRUCTORS.md's table of exercises differs from the notebooks: run "
+        "python tools/make_student_edition.py --update-guide")
+    assert regions["rubrics"] == mse.rubrics(), (
+        "INSTRUCTORS.md's rubrics differ from the notebooks: run "
+        "python tools/make_student_edition.py --update-guide")
+    assert mse.updated_guide(text) == text
+
+
 def test_student_edition_contains_no_solution_code(edition):
     for path in CHAPTERS:
         source = _read(path)
         student = _read(edition / path.name)
         elsewhere, solution = set(), set()
         for cell in source.cells:
-            blocks = _solution_blocks(cell.source) if cell.cell_type == "code" else []
-            inside = set()
+            blocks = _solution_blocks(cell.source) if cell.cell_type == "code" or _is_why_cell(cell) else []
             for block in blocks:
-                exempt = _exempt_lines(block)
-                inside.update(line.strip() for line in block)
+                exempt = _exempt_lines(block) if cell.cell_type == "code" else set()  # prose
                 solution.update(line.strip() for k, line in enumerate(block)
                                 if k not in exempt and re.search(r"\w", line)
                                 and not line.strip().startswith("#"))
-            elsewhere.update(line.strip() for line in cell.source.splitlines()
-                             if line.strip() not in inside or not blocks)
+            marked = False            # lines outside the markers, by position (a given line
+            for line in cell.source.splitlines():   # may repeat one of the solution's)
+                if line.strip() in ("### BEGIN SOLUTION", "### END SOLUTION"):
+                    marked = line.strip() == "### BEGIN SOLUTION"
+                elif not marked or not blocks:
+                    elsewhere.add(line.strip())
         # A solution line that also stands outside every solution block (a given matrix, a
         # `return x`) may stay; every other one must be gone from the student notebook.
         secret = solution - elsewhere
@@ -268,10 +350,10 @@ def test_student_edition_keeps_everything_else(edition):
         assert len(student.cells) == len(source.cells), path.name
         changed = 0
         for index, (a, b) in enumerate(zip(source.cells, student.cells)):
-            if _is_answer_cell(a) or (a.cell_type == "code" and CHECK_CALL.search(a.source)):
+            if _is_answer_cell(a) or _is_why_cell(a) or (a.cell_type == "code" and CHECK_CALL.search(a.source)):
                 changed += 1
                 assert (b.cell_type, b.get("id"), b.metadata) == (a.cell_type, a.get("id"), a.metadata)
-                if not _is_answer_cell(a):
+                if not _is_answer_cell(a) and not _is_why_cell(a):
                     assert b.source == a.source, f"{path.name} cell {index + 1}: a check cell is kept"
                 continue
             assert b == a, f"{path.name} cell {index + 1} changed in the student edition"
@@ -394,91 +476,56 @@ def test_the_exercise_slice_takes_what_the_answers_read():
 
 # --- the tool on synthetic cells ----------------------------------------------------------
 
-def test_a_function_keeps_its_signature_and_docstring():
-    source = textwrap.dedent('''\
+def test_a_function_body_becomes_the_stub_and_keeps_its_signature_and_docstring():
+    source = textwrap.dedent("""\
         # Exercise 2: your answer
-        ### BEGIN SOLUTION
         def kalman_gain(P, C,
                         R):  # K = P C^T S^-1
-            """The Kalman gain.
+            \"\"\"The Kalman gain.
 
             K = P C^T (C P C^T + R)^{-1}
-            """
+            \"\"\"
+            ### BEGIN SOLUTION
             S = C @ P @ C.T + R
             return P @ C.T @ np.linalg.inv(S)
-        ### END SOLUTION''')
-    assert mse.student_source(source, 2) == textwrap.dedent('''\
+            ### END SOLUTION""")
+    expected = textwrap.dedent("""\
         # Exercise 2: your answer
         def kalman_gain(P, C,
-                        R):
-            """The Kalman gain.
+                        R):  # K = P C^T S^-1
+            \"\"\"The Kalman gain.
 
             K = P C^T (C P C^T + R)^{-1}
-            """
-            raise NotImplementedError("Exercise 2: write this function")''')
+            \"\"\"
+            # YOUR CODE HERE""")
+    mse.check_answer_cell(source)
+    assert mse.student_source(source) == expected
+    namespace = {}
+    exec(compile(expected, "<stub>", "exec"), namespace)
+    assert namespace["kalman_gain"](1, 2, 3) is None, "the stub returns None, it does not raise"
 
 
-def test_assignments_become_none_once_each_in_order():
-    source = textwrap.dedent('''\
-        ### BEGIN SOLUTION
-        answer_1 = np.array([0.2, 0.8])
-        loglik, (mean, *rest) = -3.5, (1.0, 2.0, 3.0)
-        answer_1 = answer_1 / answer_1.sum()
-        ratio: float = 0.5
-        ratio *= 2
-        ### END SOLUTION
-        ''')
-    assert mse.student_source(source, 1) == (
-        "answer_1 = None  # your answer\nloglik = None  # your answer\nmean = None  # your answer\n"
-        "rest = None  # your answer\nratio = None  # your answer\n")
+def test_value_answers_keep_their_none_line_and_get_the_stub():
+    source = ("rng = np.random.default_rng(7)\nA = np.eye(2)\nanswer_3 = None  # your answer\n"
+              "### BEGIN SOLUTION\nanswer_3 = A @ A\n### END SOLUTION\nprint(A)")
+    mse.check_answer_cell(source)
+    assert mse.student_source(source) == ("rng = np.random.default_rng(7)\nA = np.eye(2)\n"
+                                          "answer_3 = None  # your answer\n# YOUR CODE HERE\nprint(A)")
 
 
-def test_code_outside_the_markers_is_kept():
-    source = ("rng = np.random.default_rng(7)\nA = np.eye(2)\n### BEGIN SOLUTION\n"
-              "answer_3 = A @ A\n### END SOLUTION\nprint(A)\n### BEGIN SOLUTION\n"
-              "def f(x): return 2 * x\n### END SOLUTION")
-    assert mse.student_source(source, 3) == (
-        "rng = np.random.default_rng(7)\nA = np.eye(2)\nanswer_3 = None  # your answer\nprint(A)\n"
-        "def f(x):\n    raise NotImplementedError(\"Exercise 3: write this function\")")
+def test_a_final_newline_is_kept_or_not_as_nbgrader_keeps_it():
+    assert mse.student_source("x = None\n### BEGIN SOLUTION\nx = 1\n### END SOLUTION\n") == \
+        "x = None\n# YOUR CODE HERE\n"
+    assert mse.student_source("x = None\n### BEGIN SOLUTION\nx = 1\n### END SOLUTION") == \
+        "x = None\n# YOUR CODE HERE"
 
 
-def test_a_function_and_an_answer_are_separated_as_pep8_has_it():
-    source = ("### BEGIN SOLUTION\ndef helper(seed):\n    return seed + 1\n\n\n"
-              "answer_4 = [helper(s) for s in range(3)]\n### END SOLUTION")
-    assert mse.student_source(source, 4) == (
-        'def helper(seed):\n    raise NotImplementedError("Exercise 4: write this function")\n\n\n'
-        "answer_4 = None  # your answer")
-
-
-def test_the_stub_keeps_the_indentation_of_the_markers():
-    source = textwrap.dedent('''\
-        def posterior(prior, likelihood):
-            """Normalised product."""
-            ### BEGIN SOLUTION
-            unnorm = prior * likelihood
-            return unnorm / unnorm.sum()
-            ### END SOLUTION
-        ''')
-    assert mse.student_source(source, None) == textwrap.dedent('''\
-        def posterior(prior, likelihood):
-            """Normalised product."""
-            raise NotImplementedError("write this function")
-        ''')
-    # the stub is valid Python at that indentation
-    compile(mse.student_source(source, None), "<stub>", "exec")
-
-
-def test_a_name_set_to_none_above_the_markers_is_not_repeated():
-    source = "# Exercise 2: your answer\nanswer_2 = None  # your answer\n### BEGIN SOLUTION\nanswer_2 = 3\n### END SOLUTION"
-    assert mse.student_source(source, 2) == "# Exercise 2: your answer\nanswer_2 = None  # your answer"
-
-
-def test_decorators_and_a_docstring_with_quotes_are_kept():
-    source = ('### BEGIN SOLUTION\n@functools.cache\ndef f(x: float = 1.0) -> dict[str, float]:\n'
-              "    '''It's \"f\".'''\n    return {'x': x}\n### END SOLUTION\n")
-    assert mse.student_source(source, 4) == (
-        "@functools.cache\ndef f(x: float = 1.0) -> dict[str, float]:\n    '''It's \"f\".'''\n"
-        "    raise NotImplementedError(\"Exercise 4: write this function\")\n")
+def test_a_written_answer_keeps_its_question():
+    source = ("**Why?** *(graded by hand, 1 point)* Why one?\n\n### BEGIN SOLUTION\n"
+              "*Model answer.* Because.\n\n*Rubric.* 1 point: because.\n### END SOLUTION")
+    mse.check_written_answer_cell(source)
+    assert mse.student_source(source, mse.TEXT_STUB) == (
+        "**Why?** *(graded by hand, 1 point)* Why one?\n\nYOUR ANSWER HERE")
 
 
 def test_a_cell_without_markers_is_unchanged():
@@ -494,21 +541,40 @@ def test_a_cell_without_markers_is_unchanged():
     ("x = 1  ### BEGIN SOLUTION\ny = 2\n### END SOLUTION\n", r"line 1: .*alone on its line"),
     ("### BEGIN SOLUTION  # the answer\nx = 1\n### END SOLUTION\n", r"line 1: .*alone on its line"),
     ("    ### BEGIN SOLUTION\n    x = 1\n### END SOLUTION\n", r"line 3: .*indented differently"),
-    ("### BEGIN SOLUTION\nimport numpy as np\nx = np.eye(2)\n### END SOLUTION\n",
-     r"line 2 .*only top-level def statements and assignments"),
-    ("### BEGIN SOLUTION\nx = 1\nprint(x)\n### END SOLUTION\n", r"line 3 .*only top-level def"),
-    ("### BEGIN SOLUTION\nx[0] = 1\n### END SOLUTION\n", r"only names can be assigned"),
-    ("### BEGIN SOLUTION\nx = (1,\n### END SOLUTION\n", r"not valid Python"),
+    ("x = None\n### BEGIN SOLUTION\nimport numpy as np\nx = np.eye(2)\n### END SOLUTION\n",
+     r"line 3 .*only assignments of the answer names"),
+    ("x = None\n### BEGIN SOLUTION\nx = 1\nprint(x)\n### END SOLUTION\n", r"line 4 .*only assignments"),
+    ("x = None\n### BEGIN SOLUTION\nx[0] = 1\n### END SOLUTION\n", r"only names can be assigned"),
+    ("x = None\n### BEGIN SOLUTION\nx = (1,\n### END SOLUTION\n", r"not valid Python"),
+    ("### BEGIN SOLUTION\nx = 1\n### END SOLUTION\n", r"x is assigned between the markers but not "
+                                                      r"set to None above them"),
+    ("### BEGIN SOLUTION\ndef f(x):\n    return x\n### END SOLUTION\n",
+     r"signature and docstring stand outside the markers"),
+    ("def f(x):\n    ### BEGIN SOLUTION\n    return x\n    ### END SOLUTION\n",
+     r"not valid Python once its solution is replaced .* needs its docstring above the markers"),
 ])
-def test_malformed_markers_and_solutions_are_errors(source, message):
+def test_malformed_markers_and_answer_cells_the_stub_would_break_are_errors(source, message):
     with pytest.raises(mse.StudentEditionError, match=message):
-        mse.student_source(source)
+        mse.check_answer_cell(source)
+
+
+@pytest.mark.parametrize("source, message", [
+    ("*Model answer.* Because.", r"needs '### BEGIN SOLUTION' and '### END SOLUTION'"),
+    ("### BEGIN SOLUTION\nBecause.\n### END SOLUTION", r"states its question above the markers"),
+])
+def test_a_written_answer_without_its_question_or_markers_is_an_error(source, message):
+    with pytest.raises(mse.StudentEditionError, match=message):
+        mse.check_written_answer_cell(source)
 
 
 def _notebook(cells) -> nbformat.NotebookNode:
     nb = nbformat.v4.new_notebook(metadata={"kernelspec": {
         "name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}})
     for k, (kind, source) in enumerate(cells):
+        if kind == "why":
+            nb.cells.append(nbformat.v4.new_markdown_cell(source, id=f"cell-{k}", metadata={
+                "nbgrader": {**WHY_METADATA, "points": 1, "grade_id": "ch09-ex2-why"}}))
+            continue
         new = nbformat.v4.new_markdown_cell if kind == "md" else nbformat.v4.new_code_cell
         nb.cells.append(new(source, id=f"cell-{k}"))
     return nb
@@ -518,23 +584,18 @@ SYNTHETIC = [
     ("code", "import numpy as np\nimport bayesfilt as bf"),
     ("md", "## Exercises\n\n### Exercise 1 · A number\n*Kind: derivation · about 5 min · lab*\n\n"
            "Define `answer_1`, a float."),
-    ("code", "# Exercise 1: your answer\n### BEGIN SOLUTION\nanswer_1 = 0.25 * 8\n### END SOLUTION"),
+    ("code", "# Exercise 1: your answer\nanswer_1 = None  # your answer\n### BEGIN SOLUTION\n"
+             "answer_1 = 0.25 * 8\n### END SOLUTION"),
     ("code", "bf.checks.compare_number(answer_1, 2.0, what='answer_1')"),
     ("md", "### Exercise 2 · A function\n*Kind: function · about 15 min · homework*\n\n"
            "Write `double(x)`."),
-    ("code", "x_given = np.arange(3.0)\n### BEGIN SOLUTION\ndef double(x):\n"
-             "    \"\"\"Twice x.\"\"\"\n    return x + x\n### END SOLUTION"),
+    ("code", "x_given = np.arange(3.0)\n\n\ndef double(x):\n    \"\"\"Twice x.\"\"\"\n"
+             "    ### BEGIN SOLUTION\n    return x + x\n    ### END SOLUTION"),
     ("code", "bf.checks.compare_function(double, lambda x: 2 * x, [(x_given,)], what='double')"),
+    ("why", "**Why?** *(graded by hand, 1 point)* Why twice?\n\n### BEGIN SOLUTION\n"
+            "*Model answer.* Doubling.\n\n*Rubric.* 1 point: doubling.\n### END SOLUTION"),
+    ("md", "## 9. More *(optional)*"),
 ]
-
-
-def test_the_exercise_number_comes_from_the_comment_or_the_heading():
-    nb = _notebook(SYNTHETIC + [("md", "## Appendix"), ("code", "### BEGIN SOLUTION\nz = 1\n### END SOLUTION")])
-    assert mse.exercise_number(nb.cells, 2) == 1   # "# Exercise 1" comment
-    assert mse.exercise_number(nb.cells, 5) == 2   # "### Exercise 2" heading
-    assert mse.exercise_number(nb.cells, 8) is None  # the nearest heading is not an exercise
-    student = mse.student_notebook(nb)
-    assert 'NotImplementedError("Exercise 2: write this function")' in student.cells[5].source
 
 
 def test_student_notebook_clears_answer_and_check_outputs_only():
@@ -548,24 +609,54 @@ def test_student_notebook_clears_answer_and_check_outputs_only():
     assert student.cells[0] == nb.cells[0]
     for k in (2, 3, 5, 6):
         assert student.cells[k].outputs == [] and student.cells[k].execution_count is None
-    assert student.cells[2].source == "# Exercise 1: your answer\nanswer_1 = None  # your answer"
+    assert student.cells[2].source == ("# Exercise 1: your answer\nanswer_1 = None  # your answer\n"
+                                       "# YOUR CODE HERE")
     assert student.cells[3].source == nb.cells[3].source
-    assert student.cells[5].source == ('x_given = np.arange(3.0)\ndef double(x):\n    """Twice x."""\n'
-                                       '    raise NotImplementedError("Exercise 2: write this function")')
+    assert student.cells[5].source == ('x_given = np.arange(3.0)\n\n\ndef double(x):\n'
+                                       '    """Twice x."""\n    # YOUR CODE HERE')
+    assert student.cells[7].source == "**Why?** *(graded by hand, 1 point)* Why twice?\n\nYOUR ANSWER HERE"
+    assert student.cells[7].metadata == nb.cells[7].metadata
 
 
 def test_an_error_names_the_notebook_and_the_cell():
     nb = _notebook(SYNTHETIC + [("code", "### BEGIN SOLUTION\ny = 1")])
     with pytest.raises(mse.StudentEditionError,
-                       match=r"^bad\.ipynb, cell 8, id cell-7: line 1: '### BEGIN SOLUTION' has no"):
+                       match=r"^bad\.ipynb, cell 10, id cell-9: line 1: '### BEGIN SOLUTION' has no"):
+        mse.student_notebook(nb, "bad.ipynb")
+    nb = _notebook(SYNTHETIC + [("md", "Text\n### BEGIN SOLUTION\nsecret\n### END SOLUTION")])
+    with pytest.raises(mse.StudentEditionError, match=r"cell 10, .*markdown cell that nbgrader "
+                                                      r"does not mark as a solution"):
         mse.student_notebook(nb, "bad.ipynb")
 
 
-def test_exercises_are_listed_with_kind_time_and_setting():
-    found = mse.exercises(_notebook(SYNTHETIC))
-    assert [(e["number"], e["title"], e["kind"], e["time"], e["setting"]) for e in found] == [
-        (1, "A number", "derivation", "about 5 min", "lab"),
-        (2, "A function", "function", "about 15 min", "homework")]
+def test_exercises_are_listed_with_kind_time_setting_and_points():
+    nb = _notebook(SYNTHETIC)
+    nb.cells[3].metadata["nbgrader"] = {"grade": True, "points": 1}
+    nb.cells[6].metadata["nbgrader"] = {"grade": True, "points": 2}
+    found = mse.exercises(nb)
+    assert [(e["number"], e["title"], e["kind"], e["time"], e["setting"], e["points"], e["manual"])
+            for e in found] == [(1, "A number", "derivation", "about 5 min", "lab", 1, 0),
+                                (2, "A function", "function", "about 15 min", "homework", 2, 1)]
+
+
+def test_the_table_and_the_rubrics_from_a_synthetic_chapter(tmp_path):
+    nb = _notebook(SYNTHETIC)
+    nb.cells[3].metadata["nbgrader"] = {"grade": True, "points": 1}
+    nb.cells[6].metadata["nbgrader"] = {"grade": True, "points": 1}
+    nbformat.write(nb, tmp_path / "09_synthetic.ipynb")
+    table = mse.exercise_table(tmp_path)
+    assert "| [09](notebooks/09_synthetic.ipynb) | 2 · A function | function | about 15 min | " \
+           "homework | 1 + 1 by hand |" in table
+    assert "| [09_synthetic](notebooks/09_synthetic.ipynb) | 2 | 1, about 5 min | 1, about 15 min " \
+           "| 2 + 1 by hand |" in table
+    rubric = mse.rubrics(tmp_path)
+    assert rubric.startswith("**09 · exercise 2** (`ch09-ex2-why`, 1 point). **Why?**")
+    assert "> *Model answer.* Doubling." in rubric and "> *Rubric.* 1 point: doubling." in rubric
+    guide = ("a\n<!-- generated: exercises (x) -->\nold\n<!-- end generated: exercises -->\nb\n"
+             "<!-- generated: rubrics (x) -->\n<!-- end generated: rubrics -->\n")
+    new = mse.updated_guide(guide, tmp_path)
+    assert mse.generated_regions(new) == {"exercises": table, "rubrics": rubric}
+    assert mse.updated_guide(new, tmp_path) == new
 
 
 def test_a_synthetic_student_notebook_runs_and_says_not_attempted(tmp_path):
@@ -595,6 +686,7 @@ def fake_repo(tmp_path) -> Path:
     (repo / "tools").mkdir(parents=True)
     (repo / "notebooks").mkdir()
     shutil.copy(TOOL, repo / "tools" / TOOL.name)
+    shutil.copy(ROOT / "INSTRUCTORS.md", repo / "INSTRUCTORS.md")
     nbformat.write(_notebook(SYNTHETIC), repo / "notebooks" / "01_synthetic.ipynb")
     shutil.copy(min(CHAPTERS, key=lambda p: p.stat().st_size), repo / "notebooks")
     return repo
@@ -707,7 +799,7 @@ def test_malformed_markers_stop_the_tool_before_writing(fake_repo, tmp_path):
     out = tmp_path / "student"
     proc = _cli(fake_repo, str(out))
     assert proc.returncode == 1
-    assert "09_broken.ipynb, cell 8" in proc.stderr and "without a '### BEGIN SOLUTION'" in proc.stderr
+    assert "09_broken.ipynb, cell 10" in proc.stderr and "without a '### BEGIN SOLUTION'" in proc.stderr
     assert not out.exists() or not any(out.iterdir())
 
 
@@ -719,7 +811,7 @@ def test_output_is_byte_identical_from_run_to_run(fake_repo, tmp_path):
     assert _cli(fake_repo, str(one)).returncode == 0
     assert _cli(fake_repo, str(two), hashseed=other).returncode == 0
     assert _snapshot(one) == _snapshot(two)
-    assert "NotImplementedError" in (one / "01_synthetic.ipynb").read_text()
+    assert "# YOUR CODE HERE" in (one / "01_synthetic.ipynb").read_text()
 
 
 
@@ -727,7 +819,7 @@ def test_the_commands_of_instructors_md_run(fake_repo, tmp_path):
     """Every `python tools/make_student_edition.py ...` of INSTRUCTORS.md, run as written (from a
     copy of the repository's layout, so that the real notebooks are never the target)."""
     text = (ROOT / "INSTRUCTORS.md").read_text(encoding="utf-8")
-    commands = set(re.findall(r"python tools/make_student_edition\.py(?:[ \n]+(?:--\w+|[\w./-]+/))*",
+    commands = set(re.findall(r"python tools/make_student_edition\.py(?:[ \n]+(?:--[\w-]+|[\w./-]+/))*",
                               text))
     assert any(c.endswith("student/") for c in commands) and any(c.endswith("--table") for c in commands), commands
     for command in sorted(commands):
@@ -735,5 +827,5 @@ def test_the_commands_of_instructors_md_run(fake_repo, tmp_path):
         proc = _cli(fake_repo, *args)
         assert proc.returncode == 0, (command, proc.stderr)
         if "--table" in args:
-            assert proc.stdout.startswith("| chapter | exercise | kind | time | setting |"), proc.stdout
+            assert proc.stdout.startswith("| chapter | exercise | kind | time | setting | points |"), proc.stdout
     assert (fake_repo / "student" / "01_synthetic.ipynb").exists()

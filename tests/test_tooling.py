@@ -356,3 +356,73 @@ def test_lock_file_satisfies_the_declared_bounds():
     for name, req in _declared().items():
         assert name in pins, f"{name} is a dependency of bayesfilt but not pinned in requirements.txt"
         assert req.specifier.contains(pins[name]), f"requirements.txt pins {name}=={pins[name]}, outside {req}"
+
+
+# --- the instructor's environment and JupyterLab -------------------------------------------------
+
+lab_check = _load("_check_lab_browser", ROOT / "tools" / "check_lab_browser.py")
+
+
+def test_the_instructors_requirements_pin_nbgrader_on_top_of_the_course():
+    lines = [line.split("#")[0].strip() for line in
+             (ROOT / "requirements-instructor.txt").read_text().splitlines()]
+    lines = [line for line in lines if line]
+    assert "-r requirements.txt" in lines
+    pins = [Requirement(line) for line in lines if not line.startswith("-")]
+    assert [(r.name, str(r.specifier)) for r in pins] == [("nbgrader", "==0.9.6")]
+
+
+def _setting_of_the_makefile() -> tuple[str, dict]:
+    text = (ROOT / "Makefile").read_text()
+    path = re.search(r"^LAB_SETTING := \$\(VENV\)/(\S+)$", text, flags=re.M).group(1)
+    echoed = re.search(r"echo '(\{.*\})' > \$\(LAB_SETTING\)", text).group(1)
+    return path, json.loads(echoed)
+
+
+def test_make_lab_installs_a_setting_jupyterlab_knows():
+    """The file `make lab` writes is one JupyterLab reads (an overrides.d file of the
+    environment's app settings folder) and its value is allowed by the installed JupyterLab's
+    own schema, so a renamed setting fails here rather than being ignored silently."""
+    path, setting = _setting_of_the_makefile()
+    assert path == "share/jupyter/lab/settings/overrides.d/bayesfilt.json"
+    from jupyterlab_server.settings_utils import _get_overrides
+
+    assert "overrides.d" in (_get_overrides.__doc__ or "")
+    schemas = Path(sys.prefix) / "share" / "jupyter" / "lab" / "schemas"
+    for plugin, values in setting.items():
+        package, name = plugin.split(":")
+        schema = json.loads((schemas / package / f"{name}.json").read_text())
+        for key, value in values.items():
+            allowed = [choice["const"] for choice in schema["properties"][key]["oneOf"]]
+            assert value in allowed, (plugin, key, value, allowed)
+    assert setting == {"@jupyterlab/apputils-extension:kernels-settings":
+                       {"commsOverSubshells": "disabled"}}
+    assert lab_check.COMMS_SETTING.replace(".jupyterlab-settings", "").replace("/kernels",
+                                                                                ":kernels") in setting
+
+
+def test_the_lab_check_reads_the_tex_of_displays_in_blockquotes():
+    source = "Text\n\n$$\na = b\n$$\n\n> A quote:\n>\n> $$\n> \\begin{aligned} x &= 1\\\\ y &= 2\n> \\end{aligned}\n> $$"
+    assert lab_check.display_tex(source) == ["a = b", "\\begin{aligned} x &= 1\\\\ y &= 2\n\\end{aligned}"]
+
+
+def test_the_lab_check_tells_errors_warnings_and_missing_figures():
+    outputs = [
+        {"cell": 3, "mime": "application/vnd.jupyter.stderr", "inWidget": True, "image": False,
+         "text": "ValueError                                Traceback (most recent call last)\n..."
+                 "\nParseException: exception raised in parse action"},
+        {"cell": 4, "mime": "application/vnd.jupyter.stderr", "inWidget": False, "image": False,
+         "text": "/x.py:3: UserWarning: careful"},
+        {"cell": 5, "mime": "application/vnd.jupyter.stdout", "inWidget": False, "image": False,
+         "text": "the library says:\nValueError: likelihood is zero wherever the prior has mass"},
+        {"cell": 1, "mime": "image/png", "inWidget": False, "image": True, "text": ""},
+        {"cell": 3, "mime": "image/png", "inWidget": True, "image": True, "text": ""},
+    ]
+    errors, warnings = lab_check.classify(outputs)
+    assert [o["cell"] for o in errors] == [3] and [o["cell"] for o in warnings] == [4]
+    nb = nbformat.v4.new_notebook()
+    figure = nbformat.v4.new_output("display_data", data={"image/png": "iVBOR", "text/plain": "<Figure>"})
+    nb.cells = [nbformat.v4.new_markdown_cell("# t"),
+                nbformat.v4.new_code_cell("plt.show()", outputs=[figure]),
+                nbformat.v4.new_code_cell("plt.show(); plt.show()", outputs=[figure, figure])]
+    assert lab_check.missing_figures(nb, outputs) == ["cell 3: 0 of its 2 figures shown"]

@@ -191,3 +191,33 @@ def test_mc_moments_covariance_limits_are_proven_bounds():
     assert np.allclose(low, low.T) and np.allclose(high, high.T)
     se = np.sqrt((np.outer(np.diag(P), np.diag(P)) + P**2) / (M - 1))
     assert np.all(high / se > bf.verify.z_limit(k)) and np.all(high / se < 1.25 * bf.verify.z_limit(k))
+
+
+def test_quadratic_form_limits_against_the_chi_square_law():
+    from scipy.stats import chi2
+    # equal weights: Q = a chi2_K exactly, so the limits' tails can be read off the law
+    K, a, k = 400, 0.5, 3
+    low, high = bf.verify.quadratic_form_limits(np.full(K, a), k)
+    assert chi2.sf((a * K + high) / a, K) < 1e-4 / (2 * k)
+    assert chi2.cdf((a * K + low) / a, K) < 1e-4 / (2 * k)
+    # two weights: Q = 1 chi2_30 + 3 chi2_20, whose tails are one integral of the two laws
+    from scipy.integrate import quad
+    w = np.r_[np.full(30, 1.0), np.full(20, 3.0)]
+    low, high = bf.verify.quadratic_form_limits(w, k)
+    c_high, c_low = w.sum() + high, w.sum() + low
+    upper = quad(lambda x: chi2.pdf(x, 30) * chi2.sf((c_high - x) / 3, 20), 0, np.inf)[0]
+    lower = quad(lambda x: chi2.pdf(x, 30) * chi2.cdf((c_low - x) / 3, 20), 0, c_low)[0]
+    assert upper < 1e-4 / (2 * k) and lower < 1e-4 / (2 * k), (upper, lower)
+    with pytest.raises(ValueError, match="weights"):
+        bf.verify.quadratic_form_limits([1.0, -1.0])
+
+
+def test_mc_quadratic_form_accepts_the_law_and_rejects_a_scaled_one(capsys):
+    bf.verify.forget()
+    rng = np.random.default_rng(12)
+    w = np.repeat([1.0, 2.0], 500)
+    value = float((rng.standard_normal(1000) ** 2) @ w)
+    bf.verify.mc_quadratic_form("a sum of NEES agrees with its law", value, w)
+    assert capsys.readouterr().out == "\u2713 a sum of NEES agrees with its law\n"
+    with pytest.raises(AssertionError, match="limits"):
+        bf.verify.mc_quadratic_form("over-confident", 1.5 * value, w)

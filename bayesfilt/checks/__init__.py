@@ -29,21 +29,21 @@ comparisons here (:func:`compare_array`, :func:`compare_number`, :func:`compare_
 
 The statement's numbers: :func:`given`
 --------------------------------------
-A statement's numbers are variables of the notebook (the answer cell's given data, such as ``K_1``
-in chapter 02), and a teacher may change them. The engine remembers the namespace of the notebook
+A statement's numbers are variables of the notebook (the answer cell's given data, such as
+``position_3`` in chapter 02), and a teacher may change them. The engine remembers the namespace of the notebook
 that called the check (the caller's globals, when they are a notebook's or a script's:
 ``__name__ == "__main__"``), and a check reads a number with :func:`given`, whose second argument
 is the statement's value, used only where the name is absent (a unit test that passes no
 namespace)::
 
-    K_1 = _frozen([[0.5], [0.1]])                  # chNN.py: the statement's value
+    POSITION_3 = 12.0                               # chNN.py: the statement's value
 
-    def exercise_1(excess) -> Feedback:
-        K = given("K_1", K_1)                      # the notebook's K_1, if it has one
-        return compare_array(excess, reference(K), "excess_1")
+    def exercise_3(mean, sd) -> Feedback:
+        pos = float(given("position_3", POSITION_3))  # the notebook's position_3, if it has one
+        return compare_number(mean, reference(pos), "mean_3")
 
-A test passes the notebook's variables explicitly, ``ch02.exercise_1(answer, namespace={"K_1":
-...})``. A function that :func:`given` returns (a helper the statement asks the student to write,
+A test passes the notebook's variables explicitly, ``ch02.exercise_3(mean, sd,
+namespace={"position_3": 10.0, ...})``. A function that :func:`given` returns (a helper the statement asks the student to write,
 such as ``belief_near_truth``) runs under the same guard as an answer.
 
 The engine: a time budget, in-place changes, any failure a "Not yet"
@@ -237,7 +237,7 @@ def given(name: str, default=_MISSING):
     Parameters
     ----------
     name : str
-        A variable of the statement, e.g. ``"K_1"``, or a function the statement asks the student
+        A variable of the statement, e.g. ``"position_3"``, or a function the statement asks the student
         to write (it comes back guarded, as an answer does).
     default
         The statement's value, used when the notebook has no such variable (a unit test that
@@ -951,6 +951,8 @@ def _one_case(fun, what, where, args, judge) -> Feedback:
     except Exception as exc:  # noqa: BLE001 - any failure is feedback, not a crash
         return _wrong(f"{what} fails on {where}: {type(exc).__name__}: {_text(exc)}")
     if out is None:
+        if _is_stub(fun):             # called directly, not through an exercise's guard
+            return _not_attempted(what, unwritten="stub")
         return _wrong(f"{what} returned None on {where}; did you forget `return`?")
     return judge(out, where, args)
 

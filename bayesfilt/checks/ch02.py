@@ -1,9 +1,11 @@
 """Checks of chapter 02's exercises (the Kalman filter derived; references by bf.kalman, bf.gaussian, bf.bayes).
 One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
-    exercise_1(excess_1): P+(K) - P+(K*), the covariance a suboptimal gain adds [P_1, C_1, R_1, K_1];
+    exercise_1(means_1, vars_1, P_inf_1, K_inf_1): two steps of the scalar filter by hand, then its steady
+        state for new Q and R [xhat_00_1, P_00_1, Q_1, R_1, ys_1, Q_new_1, R_new_1];
     exercise_2(kalman_gain): the gain K = P C^T S^{-1}, on five inputs;
-    exercise_3(info_3): the posterior precision, the prediction's plus the measurement's [P_3, C_3, R_3];
+    exercise_3(mean_3, sd_3): E(velocity | position) and its standard deviation in section 3's cloud
+        [m_3, Pi_3, position_3];
     exercise_4(agree_4, meaning_4, grid_means_uniform): the grid filter under uniform noise, and what the KF
         mean is [a_4];
     exercise_5(correlated_gain): the gain when cov(w_t, v_{t+1}) = D, on four inputs.
@@ -17,14 +19,22 @@ import numbers
 import numpy as np
 
 from . import (CORRECT, INCORRECT, Feedback, _combine, _frozen, _hinted, _is, _named, _normal,
-               _not_attempted, _wrong, compare_array, compare_function, given, register as _register)
+               _not_attempted, _wrong, compare_array, compare_function, compare_number, given,
+               register as _register)
 from .. import bayes, gaussian, kalman, models
 
-# the statements' numbers: a predicted covariance (m^2, m^2/step, (m/step)^2), the position sensor and its noise
-# variance (m^2); the gain of exercise 1, the better sensor of exercise 3, the noise gain of the damped particle
-# (the force acts on the velocity) and cov(w_t, v_{t+1}) of exercise 5
+# the statements' numbers. Exercise 1: section 2's random walk x_{t+1} = x_t + w_t, y_t = x_t + v_t, from the
+# belief after y_0 (m, m^2), with Q, R (m^2) and y_1, y_2 (m); then the steady state for new Q, R (m^2).
+XHAT_00_1, P_00_1, Q_1, R_1, YS_1 = 20.0, 3.0, 1.0, 2.0, _frozen([23.0, 28.5])
+Q_NEW_1, R_NEW_1, ATOL_HAND = 1.0, 6.0, 1e-3
+# exercise 3: section 3's cloud at t = 8 as printed there (m, m/step; m^2, m^2/step, (m/step)^2), the position
+# learnt exactly (m), and the position sensor's R = 1 m^2 of section 1 (the noisy slope is a named mistake)
+M_3, PI_3, POSITION_3, R_SECTION_1 = _frozen([4.76, 0.43]), _frozen([[27.35, 3.96], [3.96, 0.87]]), 12.0, 1.0
+# exercises 2 and 5: a predicted covariance (m^2, m^2/step, (m/step)^2) close to section 7's P_{11|10}, the
+# position sensor and its noise variance (m^2); the noise gain of the damped particle (the kick acts on the
+# velocity) and cov(w_t, v_{t+1}) of exercise 5
 P_EX, C_EX, R_EX = _frozen([[1.2, 0.45], [0.45, 0.34]]), _frozen([[1.0, 0.0]]), _frozen([[1.0]])
-K_1, R_3, G_EX, D_5 = _frozen([[0.5], [0.1]]), _frozen([[0.25]]), _frozen([[0.0], [1.0]]), _frozen([[0.2]])
+G_EX, D_5 = _frozen([[0.0], [1.0]]), _frozen([[0.2]])
 # exercise 4: the 1-D model and grid of "The Kalman filter is the Bayes recursion of chapter 01",
 # 10 measurements (seed 3); uniform noise on [-a, a], a = sqrt(1.5), has the variance a^2 / 3 = 0.5
 MODEL_1D = dict(A=[[0.9]], C=[[0.5]], Q=[[0.5]], R=[[0.4]], m0=[1.0], P0=[[2.0]])
@@ -57,29 +67,123 @@ def _given_arrays(**defaults) -> list[np.ndarray]:
     return [np.array(given(name, value), dtype=float) for name, value in defaults.items()]
 
 
-def exercise_1(excess) -> Feedback:
-    """excess_1 = P+(K) - P+(K*) for the gain K_1 (shape (2, 2)), with P_1, C_1, R_1."""
-    P, C, R, K = _given_arrays(P_1=P_EX, C_1=C_EX, R_1=R_EX, K_1=K_1)
-    w = "excess_1"
-    best, CPCt, IKC = _posterior(P, C, R).cov, C @ P @ C.T, np.eye(len(P)) - K @ C
-    joseph, K0 = IKC @ P @ IKC.T + K @ R @ K.T, _gain(P, C, R, CPCt)          # P+(K) for any gain K
-    expected = joseph - best
-    return _named(excess, expected, w, [
-        (lambda a: a.size == 1, f"{w} is a single number, but P+(K) - P+(K*) is a matrix, shape {P.shape}: "
-                                f"K - K* is a column, so (K - K*) S (K - K*)^T is an outer product."),
-        (-expected, f"{w} has the wrong sign: the exercise asks for P+(K) - P+(K*), the uncertainty "
-                    f"the suboptimal gain adds, which is positive semi-definite."),
-        (P - K @ C @ P - best, f"{w}: for the gain K you used P - KCP, the posterior covariance only "
-                               f"at the optimal gain K*; for any other gain it is the Joseph form."),
-        (IKC @ P @ IKC.T - best, f"{w}: your Joseph form misses the term K R K^T, the sensor noise "
-                                 f"that the gain lets into the estimate."),
-        (joseph, f"{w} is P+(K) itself; subtract the covariance at the optimal gain, P+(K*)."),
-        ((K - K0) @ CPCt @ (K - K0).T, f"{w}: S is C P C^T + R; yours is computed with S = C P C^T, R left out."),
-        ((K - _gain(P, C, R)) @ CPCt @ (K - _gain(P, C, R)).T,
-         f"{w}: the middle factor is S = C P C^T + R: you left R out of it."),
-        ((K - K0) @ (CPCt + R) @ (K - K0).T, f"{w}: your K* is computed with S = C P C^T; the optimal "
-                                             f"gain is K* = P C^T S^{{-1}} with S = C P C^T + R."),
-    ])
+def _number(answer, expected, what, mistakes=(), atol=ATOL_HAND) -> Feedback:
+    """compare_number to a hand computation's accuracy; an answer equal to a named wrong value (that is
+    not the right one) gets that value's message."""
+    fb = compare_number(answer, expected, what, rtol=0.0, atol=atol)
+    if fb.status != INCORRECT or " must be " in fb.message or "NaN" in fb.message:
+        return fb
+    value = float(np.ravel(answer)[0])
+    for wrong, message in mistakes:
+        if np.isfinite(wrong) and abs(wrong - expected) > atol and abs(value - wrong) <= atol:
+            return _wrong(f"{what}: {message}")
+    return fb
+
+
+# Exercise 1: the scalar filter by hand ------------------------------------------------------------------
+
+def _scalar_steps(x, P, Q, R, ys, variant: str = "right") -> tuple[np.ndarray, np.ndarray]:
+    """Means and variances after each update from the belief (x, P) after y_0, written out, right or
+    with one of the named mistakes (the check's reference is _library_steps)."""
+    means, variances = [], []
+    for t, y in enumerate(ys):
+        P = P + (0.0 if variant == "no Q" or (variant == "no Q at step 2" and t > 0) else Q)
+        if variant == "predictions":
+            means.append(x)
+            variances.append(P)
+        K = P / (P + R)
+        x = x + ((1 - K) if variant == "gain swapped" else K) * (y - x)
+        P = K * P if variant == "K P" else (1 - K) * P
+        if variant != "predictions":
+            means.append(x)
+            variances.append(np.sqrt(P) if variant == "std" else P)
+    return np.array(means), np.array(variances)
+
+
+def _library_steps(x, P, Q, R, ys) -> tuple[np.ndarray, np.ndarray]:
+    """The same two steps by bf.kalman.predict and bf.kalman.update (1 x 1 matrices)."""
+    mean, cov, means, variances = np.array([x]), np.array([[P]]), [], []
+    for y in ys:
+        mean, cov = kalman.predict(mean, cov, [[1.0]], [[Q]])
+        mean, cov = kalman.update(mean, cov, [y], [[1.0]], [[R]])[:2]
+        means.append(mean[0])
+        variances.append(cov[0, 0])
+    return np.array(means), np.array(variances)
+
+
+_STEP_MISTAKES = {
+    "no Q": "the prediction forgets Q: each prediction adds the drift's variance, P_{t|t-1} = P_{t-1|t-1} + Q, "
+            "before the gain is computed.",
+    "no Q at step 2": "step 2 starts from P_{1|1} without adding Q: predict again before the second update "
+                      "(P_{2|1} = P_{1|1} + Q).",
+    "predictions": "these are the predictions x^_{t|t-1}, P_{t|t-1}; give the beliefs after each update.",
+    "gain swapped": "the estimate moves K_t of the way from the prediction towards y_t: x^_{t|t-1} + K_t "
+                    "(y_t - x^_{t|t-1}), not 1 - K_t of the way.",
+    "K P": "after the update the variance is (1 - K_t) P_{t|t-1}, the share the measurement leaves, not "
+           "K_t P_{t|t-1}.",
+    "std": "these are standard deviations; vars_1 holds the variances P_{1|1}, P_{2|2} (m^2).",
+}
+
+
+def exercise_1(means, variances, P_inf, K_inf) -> Feedback:
+    """means_1 = [x^_{1|1}, x^_{2|2}], vars_1 = [P_{1|1}, P_{2|2}] from x^_{0|0}, P_{0|0} with Q_1, R_1 and
+    ys_1 = [y_1, y_2]; P_inf_1 and K_inf_1, the steady P_{t|t-1} and gain for Q_new_1 and R_new_1."""
+    x0, P0, Q, R = (float(given(n, v)) for n, v in (("xhat_00_1", XHAT_00_1), ("P_00_1", P_00_1),
+                                                      ("Q_1", Q_1), ("R_1", R_1)))
+    ys = np.ravel(np.array(given("ys_1", YS_1), dtype=float))
+    Qn, Rn = float(given("Q_new_1", Q_NEW_1)), float(given("R_new_1", R_NEW_1))
+    ref_means, ref_vars = _library_steps(x0, P0, Q, R, ys)
+    variants = {v: _scalar_steps(x0, P0, Q, R, ys, v) for v in _STEP_MISTAKES}
+    near = functools.partial(np.allclose, rtol=0.0, atol=ATOL_HAND)
+    n = len(ys)
+
+    def step_mistakes(k: int, w: str):
+        first = [(lambda a: a.size == 1, f"{w} must hold {n} numbers, one after each of the {n} updates; "
+                                         f"got one."),
+                 (ref_means if k else ref_vars, f"{w} holds the {'means' if k else 'variances'}; swap "
+                                                f"means_1 and vars_1.")]
+        named = [(variants[v][k], f"{w}: {m}") for v, m in _STEP_MISTAKES.items() if v != "std" or k == 1]
+        last = [(lambda a: a.shape == (n,) and n > 1 and near(a[0], (ref_means, ref_vars)[k][0]),
+                 f"{w} has step 1 right but not step 2: step 2 starts from step 1's belief, predicts "
+                 f"(adds Q) and updates with y_2.")]
+        return first + named + last
+
+    ss = kalman.steady_state(models.LinearGaussian(A=[[1.0]], C=[[1.0]], Q=[[Qn]], R=[[Rn]], m0=[0.0],
+                                                   P0=[[1.0]]))
+    P_ref, K_ref = float(ss.pred_cov[0, 0]), float(ss.gain[0, 0])
+    root = np.sqrt(Qn ** 2 + 4 * Qn * Rn)
+    filtered = P_ref * Rn / (P_ref + Rn)
+    swapped = (Rn + np.sqrt(Rn ** 2 + 4 * Qn * Rn)) / 2              # Q and R swapped
+    notes = "these are section 2's numbers (Q = 2, R = 3 m^2); use Q_new_1 and R_new_1."
+    P_2 = (2.0 + np.sqrt(4.0 + 24.0)) / 2                      # section 2's P_inf, Q = 2 and R = 3 m^2
+    steps = [_named(means, ref_means, "means_1", step_mistakes(0, "means_1"), rtol=0.0, atol=ATOL_HAND),
+             _named(variances, ref_vars, "vars_1", step_mistakes(1, "vars_1"), rtol=0.0, atol=ATOL_HAND)]
+    said = [fb.message.split(": ", 1)[-1] for fb in steps]
+    if all(fb.status == INCORRECT for fb in steps) and said[0] == said[1]:     # one mistake, said once
+        steps = [_wrong(f"means_1 and vars_1: {said[0]}"), Feedback(CORRECT, "")]
+    parts = [
+        ("means_1", steps[0]), ("vars_1", steps[1]),
+        ("P_inf_1", _number(P_inf, P_ref, "P_inf_1", [
+            (filtered, "this is the steady variance after the update, P_{t|t} = P_inf R / (P_inf + R); "
+                       "P_inf is the prediction's, P_{t|t-1}, the solution of P = P R / (P + R) + Q."),
+            (swapped, "Q and R are swapped: P_inf = (Q + sqrt(Q^2 + 4 Q R)) / 2."),
+            (Qn + root, "this is twice P_inf: the root of P^2 - Q P - Q R = 0 is (Q + sqrt(Q^2 + 4 Q R)) / 2."),
+            ((Qn - root) / 2, "this is the negative root of P^2 - Q P - Q R = 0; a variance is positive."),
+            (root / 2, "the root is (Q + sqrt(Q^2 + 4 Q R)) / 2: Q is missing in front of the square root."),
+            (P_2, notes)])),
+        ("K_inf_1", _number(K_inf, K_ref, "K_inf_1", [
+            (filtered / (filtered + Rn), "the gain uses the prediction's variance: K_inf = P_inf / (P_inf + R), "
+                                         "with P_inf the steady P_{t|t-1}, not P_{t|t}."),
+            (P_ref / (P_ref + Qn), "the gain weighs the prediction against the sensor: K_inf = P_inf / "
+                                   "(P_inf + R), with R, not Q."),
+            (1 - K_ref, "this is 1 - K_inf, the share kept from the prediction; K_inf = P_inf / (P_inf + R)."),
+            (P_ref / Rn, "divide by P_inf + R (the variance of the innovation), not by R alone."),
+            (swapped / (swapped + Rn), "Q and R are swapped in your P_inf: P_inf = (Q + sqrt(Q^2 + 4 Q R)) / 2."),
+            (P_2 / (P_2 + 3.0), notes)])),
+    ]
+    if all(fb.correct for _, fb in parts):
+        return Feedback(CORRECT, "means_1, vars_1, P_inf_1 and K_inf_1 match the reference.")
+    return _combine([part for part in parts if part[1].message])
 
 
 _GAIN_MISTAKES = [
@@ -117,24 +221,54 @@ def exercise_2(kalman_gain) -> Feedback:
                                                                  "or np.linalg.inv.")])
 
 
-def exercise_3(info) -> Feedback:
-    """info_3, the posterior precision P_{t+1|t+1}^{-1} for P_3, C_3 and R_3 (shape (2, 2))."""
-    P, C, R = _given_arrays(P_3=P_EX, C_3=C_EX, R_3=R_3)
-    w = "info_3"
-    post_cov, P_inv, meas = _posterior(P, C, R).cov, np.linalg.inv(P), C.T @ np.linalg.inv(R) @ C
-    return _named(info, np.linalg.inv(post_cov), w, [
-        (post_cov, f"{w} is the posterior covariance P_{{t+1|t+1}}; the exercise asks for its inverse, "
-                   f"the posterior precision matrix."),
-        (meas, f"{w} is the measurement's precision C^T R^{{-1}} C alone (singular: one position "
-               f"measurement says nothing about the velocity); add the prediction's precision."),
-        (P_inv, f"{w} is the precision of the prediction, P^{{-1}}, alone; the measurement adds to it."),
-        (P + meas, f"{w}: you added the covariance P; precisions add, so use P^{{-1}}."),
-        (P_inv + C.T @ R @ C, f"{w}: R is not inverted: the measurement contributes C^T R^{{-1}} C (a "
-                              f"precise sensor, small R, adds much precision)."),
-        (P_inv - meas, f"{w}: a measurement adds precision, it cannot remove it: check the sign of C^T R^{{-1}} C."),
-        (np.linalg.inv(P + C.T @ R @ C), f"{w}: you inverted the sum P + C^T R C; precisions add: P^{{-1}} + "
-                                         f"C^T R^{{-1}} C."),
-    ])
+# Exercise 3: conditioning section 3's cloud ----------------------------------------------------------
+
+def exercise_3(mean, sd) -> Feedback:
+    """mean_3 = E(velocity | position = position_3) and sd_3, its standard deviation, for the cloud
+    N(m_3, Pi_3) of section 3 (position first)."""
+    m, Pi = _given_arrays(m_3=M_3, Pi_3=PI_3)
+    pos = float(given("position_3", POSITION_3))
+    cond = gaussian.condition(mean_x=m[1:], mean_y=m[:1], cov_xx=Pi[1:, 1:], cov_xy=Pi[1:, :1],
+                              cov_yy=Pi[:1, :1], y=np.array([pos]))
+    ref_mean, ref_sd = float(cond.mean[0]), float(np.sqrt(cond.cov[0, 0]))
+    p11, p21, p22, d = Pi[0, 0], Pi[1, 0], Pi[1, 1], pos - m[0]
+    noisy = p11 + R_SECTION_1
+    rho = p21 / np.sqrt(p11 * p22)
+    parts = [
+        ("mean_3", _number(mean, ref_mean, "mean_3", [
+            (m[1], "this is the mean velocity before anything is learnt, m_2; learning the position moves it "
+                   "by the slope times (position - m_1)."),
+            (m[1] + p21 / p11 * pos, "measure the position from the cloud's centre: the slope multiplies "
+                                     "position - m_1, not the position itself."),
+            (m[1] + p21 / p22 * d, "the slope is Pi_21 / Pi_11 (velocity per metre of position); Pi_21 / Pi_22 "
+                                   "is the slope of the position on the velocity."),
+            (m[1] + p21 / noisy * d, f"this is the slope for a noisy position, Pi_21 / (Pi_11 + R) with R = "
+                                     f"{R_SECTION_1:g} m^2 (the filter's gain); here the position is known "
+                                     f"exactly: Pi_21 / Pi_11."),
+            (m[1] + rho * d, "the correlation is no slope (it has no units): the slope is Pi_21 / Pi_11, "
+                             "m/step per metre."),
+            (m[0] + p21 / p22 * (pos - m[1]), "this mixes up the two components: the position comes first "
+                                              "in m_3 and Pi_3, the velocity second."),
+        ])),
+        ("sd_3", _number(sd, ref_sd, "sd_3", [
+            (ref_sd ** 2, "this is the variance Pi_22 - Pi_21^2 / Pi_11; the standard deviation is its "
+                          "square root."),
+            (np.sqrt(p22), "this is the velocity's spread before anything is learnt; conditioning on the "
+                           "position narrows it: Pi_22 - Pi_21^2 / Pi_11."),
+            (np.sqrt(p22 + p21 ** 2 / p11), "learning the position removes variance, it cannot add any: "
+                                            "Pi_22 - Pi_21^2 / Pi_11."),
+            (np.sqrt(p11 - p21 ** 2 / p22), "this is the spread of the position given the velocity; the "
+                                            "velocity's is Pi_22 - Pi_21^2 / Pi_11."),
+            (np.sqrt(p22 - p21 ** 2 / noisy), f"this is the spread after a noisy position (R = "
+                                              f"{R_SECTION_1:g} m^2); here the position is known exactly."),
+            (np.sqrt(p22) * (1 - rho ** 2), "the factor is sqrt(1 - rho^2), not 1 - rho^2: the variance, not "
+                                            "the standard deviation, shrinks by 1 - rho^2."),
+        ])),
+    ]
+    if all(fb.correct for _, fb in parts):
+        return Feedback(CORRECT, "mean_3 and sd_3 match the reference; compare them with the kept velocities "
+                                 "of section 3's figure.")
+    return _combine(parts)
 
 
 @functools.lru_cache(maxsize=1)
@@ -259,7 +393,7 @@ _CORRELATED_MISTAKES = [
     (lambda *args: _correlated_reference(*args).T, "the gain is transposed: one row per state component."),
     (lambda P, C, R, G, D: _gain(P, C, R), "this is the usual Kalman gain, as if D were 0: with D != 0, "
      "v_{t+1} is correlated with x_{t+1} (through w_t), so the cross terms with v_{t+1} that vanished "
-     "in the joint Gaussian of the next state and measurement do not all vanish."),
+     "in the joint Gaussian of the state and its measurement do not all vanish."),
     (lambda *args: _correlated(*args, cross_terms=0), "Sigma_xy accounts for D but Sigma_yy does not: "
      "y_{t+1} = C x_{t+1} + v_{t+1}, a sum of two correlated terms, has cross terms too."),
     *[(lambda *args, s=solved, c=cross: _correlated(*args, cross_terms=c, solved=s), message)
