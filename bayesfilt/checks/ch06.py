@@ -235,7 +235,7 @@ def exercise_2(answer) -> Feedback:
              (other[3], zero)] + [(f * (1 - f / r), f"uses the wrong number of residual draws M̃: {res}, with the "
                                                     f"floors of all four particles.") for r in range(2, M + 1)
                                   if r != R]]
-    what, order = "answer_2", "np.array([E_N1, var_multinomial, var_systematic, var_residual])"
+    what, order = "answer_2", "np.array([E_O2, var_multinomial, var_systematic, var_residual])"
     if answer is None or answer is Ellipsis:
         return _not_attempted(what)
     a, bad = _as_numbers(answer, what)
