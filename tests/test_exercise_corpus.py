@@ -649,7 +649,7 @@ def answer_6_3() -> tuple:
 CH06 = [
     right(systematic), right(lambda w, u: systematic(w, u).astype(np.int32)),
     Row("6.1", (lambda w, u: np.bincount(systematic(w, u), minlength=len(w)),), INCORRECT, "returns offspring counts"),
-    Row("6.1", (lambda w, u: (np.arange(len(w)) + u) / len(w),), INCORRECT, "returns the points p_j"),
+    Row("6.1", (lambda w, u: (np.arange(len(w)) + u) / len(w),), INCORRECT, "returns the points u_j"),
     Row("6.1", (lambda w, u: systematic(w, u) + 1,), INCORRECT, "'s indices are shifted by one"),
     Row("6.1", (lambda w, u: np.searchsorted(np.cumsum(w), (np.arange(len(w)) + u) / len(w), side="right"),),
         INCORRECT, "does not normalise the weights"),
