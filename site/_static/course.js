@@ -9,8 +9,10 @@
 */
 (function () {
   "use strict";
-  if (window.location.protocol === "file:" && window.DOCUMENTATION_OPTIONS) {
-    window.DOCUMENTATION_OPTIONS.SHOW_SEARCH_SUMMARY = false;
+  // documentation_options.js declares `const DOCUMENTATION_OPTIONS`: a global binding, not a
+  // property of window.
+  if (window.location.protocol === "file:" && typeof DOCUMENTATION_OPTIONS !== "undefined") {
+    DOCUMENTATION_OPTIONS.SHOW_SEARCH_SUMMARY = false;
   }
 
   const GREEK = {
