@@ -5,7 +5,7 @@ Usage (after ``python tools/build_site.py``)::
     apt-get install -y chromium            # Debian/Ubuntu: the system Chromium
     python tools/check_site_browser.py --http     # every page, served from 127.0.0.1 (as CI)
     python tools/check_site_browser.py            # ... opened as files (file://) instead
-    python tools/check_site_browser.py --widths 390 build/site/chapters/03_damped_particle.html
+    python tools/check_site_browser.py build/site/chapters/03_damped_particle.html --widths 390
     python tools/check_site_browser.py --http --print 02 06   # also print two chapters to PDF
 
 Playwright (pinned in ``requirements-site.txt``) drives the system Chromium
@@ -197,8 +197,13 @@ async (codeLimit) => {
     const pre = clone.querySelector('div.highlight pre');
     pre.textContent = 'x = f(' + 'a'.repeat(codeLimit - 7) + ')';
     host.parentElement.insertBefore(clone, host);
+    const range = document.createRange();
+    range.selectNodeContents(pre);
+    const ps = getComputedStyle(pre);
     result.code.probe = {chars: pre.textContent.length, scroll: pre.scrollWidth, client: pre.clientWidth,
-                         fontSize: getComputedStyle(pre).fontSize};
+                         fontSize: ps.fontSize, text: Math.round(range.getBoundingClientRect().width),
+                         room: Math.round(pre.clientWidth - parseFloat(ps.paddingLeft) -
+                                          parseFloat(ps.paddingRight))};
     clone.remove();
   }
   for (const pre of article.querySelectorAll('div.cell_input div.highlight pre, ' +
@@ -351,7 +356,7 @@ def check_page(session: Session, rel: str, width: int, use_http: bool) -> tuple[
     if width >= 1024:
         problems += overflow_lines
         probe = info["code"]["probe"]
-        if probe and probe["scroll"] > probe["client"] + 1:
+        if probe and (probe["scroll"] > probe["client"] + 1 or probe["text"] > probe["room"] + 1):
             problems.append(f"an {probe['chars']}-character code line does not fit its cell "
                             f"({probe['scroll']} px in {probe['client']} px at {probe['fontSize']})")
         problems += [f"code cell scrolls though its lines are ≤ {CODE_LIMIT} characters: {c}"
@@ -372,8 +377,8 @@ def check_page(session: Session, rel: str, width: int, use_http: bool) -> tuple[
                f"{' by the local MathJax' if info['mathjax'] else ''}, "
                f"{len(info['images']) - len(info['badImages'])}/{len(info['images'])} images, "
                f"page {info['pageWidth']} px, column {info['column']} px"
-               + (f", {probe['chars']}-char line {probe['scroll']}/{probe['client']} px"
-                  if probe and width >= 1024 else ""))
+               + (f", an {probe['chars']}-character code line takes {probe['text']} of "
+                  f"{probe['room']} px" if probe and width >= 1024 else ""))
     return problems, notes, summary
 
 
