@@ -190,6 +190,10 @@ def chapter_header_buttons(app, pagename, templatename, context, doctree):
     Runs after the theme's own handlers (priority 502 > 501), which fill ``header_buttons``.
     The notebook offered is the student edition (``notebooks/<name>.ipynb`` of the site, copied
     there by tools/build_site.py); Binder opens the repository's notebook (with solutions).
+
+    No Colab button: Colab opens a notebook alone, without the repository, so neither
+    ``bayesfilt`` nor filterpy can be imported and the first code cell fails; it does not read
+    ``requirements.txt``. Making it work would need a ``%pip install`` cell in every notebook.
     """
     if not pagename.startswith("chapters/") or "header_buttons" not in context:
         return
