@@ -486,6 +486,8 @@ def stage(stage_dir: Path, repository: str, branch: str, notebooks_dir: Path = N
     if has_glossary:
         numbers = {doc.split("/")[1][:2]: doc for doc, _, _ in chapters}
         text = rewrite_links(glossary.read_text(encoding="utf-8"), docs, repository, branch)
+        if not re.search(r"^# ", text, flags=re.M):
+            text = "# Glossary\n\n" + text   # the page's title in the sidebar and the search
         (stage_dir / "glossary.md").write_text(link_glossary_chapters(text, numbers),
                                                encoding="utf-8")
     reference = [("notation", "the notation")]
