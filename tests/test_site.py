@@ -34,7 +34,8 @@ sys.path.insert(0, str(ROOT / "tools"))
 import build_site  # noqa: E402
 
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))
-SITE_PACKAGES = ("sphinx", "myst_nb", "sphinx_book_theme", "numpydoc", "sphinx-mathjax-offline")
+SITE_PACKAGES = ("sphinx", "myst_nb", "sphinx_book_theme", "numpydoc", "sphinx-mathjax-offline",
+                 "sphinx_copybutton")
 MISSING = [name for name in SITE_PACKAGES if importlib.util.find_spec(name) is None]
 SKIP_MESSAGE = (f"the website's dependencies are not installed (missing: {', '.join(MISSING)}); "
                 f"pip install -r requirements.txt -r requirements-site.txt to run these tests")
