@@ -211,9 +211,10 @@ def figures(html: str) -> list[tuple[str, str, str | None]]:
 
 
 def bad_alt(src: str, alt: str) -> bool:
-    """Alt text that describes nothing: empty, the file's path or name, or an image file name."""
+    """Alt text that describes nothing: empty, the file's path or name (one word with a slash,
+    where a sentence may well say "1/2"), or an image file name."""
     alt = alt.strip()
-    return (not alt or alt == src or "/" in alt or alt == src.rsplit("/", 1)[-1]
+    return (not alt or alt == src or ("/" in alt and " " not in alt) or alt == src.rsplit("/", 1)[-1]
             or bool(re.search(r"\.(png|jpe?g|svg|gif)$", alt, re.I)))
 
 
