@@ -493,7 +493,7 @@ CH04 = [
     Row("4.3", (lambda *a: iterated(*a, mode="fixed_H"), LIMIT), INCORRECT, "keep the Jacobian of m0"),
     Row("4.3", (iterated, iterated(RB.m0, RB.P0, Y0, 1)[:2]), INCORRECT, "answer_3 is x^(1), the ordinary"),
     Row("4.3", (iterated, iterated(RB.m0, RB.P0, Y0, 50)), INCORRECT, "answer_3 is a whole state"),
-    Row("4.3", (iterated, LIMIT[::-1]), INCORRECT, "answer_3 has r_x and r_y swapped"),
+    Row("4.3", (iterated, LIMIT[::-1]), INCORRECT, "answer_3 has xi_x and xi_y swapped"),
     Row("4.3", (lambda *a: iterated(*a)[:2], LIMIT), INCORRECT, "return the whole state x^(n_iter)"),
     right(turn_jacobian), right(lambda x: turn_jacobian(x, F32)),
     Row("4.4", (lambda x: turn_jacobian(x).T,), INCORRECT, "F is transposed"),

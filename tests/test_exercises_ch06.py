@@ -374,7 +374,7 @@ def test_ex3_not_attempted_and_never_raises():
 def _roughened_lost_and_nees(model, sims, kappa, seed):
     """(lost runs, median NEES over t >= 30) of SIR with roughening, written out here."""
     rng = np.random.default_rng(seed)
-    position = model.index_of("r_x", "r_y")
+    position = model.index_of("xi_x", "xi_y")
     d, N = 4, 500
     lost, nees = 0, []
     for xs, ys in zip(sims.xs, sims.ys):
