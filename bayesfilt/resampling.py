@@ -44,7 +44,7 @@ pieces, piece i of length :math:`W_i`. Put M points :math:`u_j` in [0, 1)
 and give each the index of the piece it falls in, the first i with
 :math:`u_j < \Omega_i`. For the example above (systematic, M = 4, v = 0.637)::
 
-    0    C_0                               C_1 C_2          C_3 = 1
+    0    Om_0                              Om_1 Om_2        Om_3 = 1
     |-----|-----------------------------------|--|--------------|
      W_0                 W_1                  W_2      W_3
               ^              ^              ^              ^
