@@ -475,6 +475,8 @@ TEX_LETTERS = {
     "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "epsilon": "ε", "kappa": "κ",
     "mu": "μ", "xi": "ξ", "pi": "π", "rho": "ρ", "sigma": "σ", "phi": "φ", "varphi": "φ",
     "Gamma": "Γ", "Pi": "Π", "Sigma": "Σ", "Omega": "Ω", "ell": "ℓ", "sum": "Σ", "top": "T",
+    "Delta": "Δ", "tau": "τ", "theta": "θ", "lambda": "λ", "Lambda": "Λ", "Psi": "Ψ",
+    "infty": "∞", "mathcal": " ", "mathrm": " ", "lfloor": " ", "rfloor": " ",
 }
 
 
