@@ -49,7 +49,7 @@ Models may name their state components (``model.state_names``) and say
 which two are planar positions (``model.position_names``), so that code that
 plots positions selects them by name, never by a remembered column number:
 the damped particle's state is ``[x1, x1_dot, x2, x2_dot]`` (seed 000's
-order) and the vehicle's ``[r_x, r_y, v_x, v_y]`` (Kay's order).
+order) and the vehicle's ``[xi_x, xi_y, xi_x_dot, xi_y_dot]`` (Kay's order).
 
 Letters at the API follow seed 000; the other seeds and filterpy use other
 letters for the same objects:
@@ -864,7 +864,7 @@ def _range_bearing_residual(y: np.ndarray, y_pred: np.ndarray) -> np.ndarray:
     return r
 
 
-#: Kay's nominal start: r_x = 10 - 0.2 n, r_y = -5 + 0.2 n.
+#: Kay's nominal start: xi_x = 10 - 0.2 n, xi_y = -5 + 0.2 n.
 RANGE_BEARING_TRUE_START = np.array([10.0, -5.0, -0.2, 0.2])
 RANGE_BEARING_TRUE_START.setflags(write=False)
 
@@ -873,18 +873,19 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
                   m0=(5.0, 5.0, 0.0, 0.0), prior_var: float = 100.0) -> NonlinearGaussian:
     r"""Kay's vehicle tracked by range and bearing (Example 13.4, seed 000 section 3.1).
 
-    State :math:`[r_x, r_y, v_x, v_y]` (Kay's order; ``state_names =
-    ("r_x", "r_y", "v_x", "v_y")``), constant velocity with unit time step
+    State :math:`[\xi_x, \xi_y, \dot\xi_x, \dot\xi_y]` (Kay's order; ``state_names =
+    ("xi_x", "xi_y", "xi_x_dot", "xi_y_dot")``; Kay writes them :math:`r_x, r_y, v_x, v_y`),
+    constant velocity with unit time step
     and process noise on the velocities only; the sensor at the origin
     measures
 
     .. math::
 
-        R = \sqrt{r_x^2 + r_y^2},\qquad \beta = \operatorname{atan2}(r_y, r_x).
+        \rho = \sqrt{\xi_x^2 + \xi_y^2},\qquad \beta = \operatorname{atan2}(\xi_y, \xi_x).
 
     Erratum (seed 000): the seed writes :math:`\beta = \arctan(r_y / r_x)`,
-    which loses the quadrant once :math:`r_x < 0`; ``atan2`` does not, and the
-    bearing innovation is wrapped into :math:`(-\pi, \pi]`.
+    which loses the quadrant once :math:`r_x < 0` (the course's :math:`\xi_x`); ``atan2`` does
+    not, and the bearing innovation is wrapped into :math:`(-\pi, \pi]`.
 
     The filter prior is Example 13.4's numbers, ``m0 = [5, 5, 0, 0]``,
     ``P0 = 100 I``, applied at n = 0 (the course's x_0, measured by y_0).
@@ -937,7 +938,7 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
         rx, ry = float(x[0]), float(x[1])
         r2 = rx * rx + ry * ry
         if r2 == 0.0:
-            raise ValueError("range-bearing Jacobian H is undefined at the sensor (r_x = r_y = 0)")
+            raise ValueError("range-bearing Jacobian H is undefined at the sensor (xi_x = xi_y = 0)")
         r = np.sqrt(r2)
         return np.array([[rx / r, ry / r, 0.0, 0.0],
                          [-ry / r2, rx / r2, 0.0, 0.0]])
@@ -946,8 +947,8 @@ def range_bearing(velocity_var: float = 1e-4, range_var: float = 0.1, bearing_va
                              R=np.diag([range_var, bearing_var]),
                              m0=m0, P0=prior_var * np.eye(4), G=G,
                              residual_fn=_range_bearing_residual,
-                             state_names=("r_x", "r_y", "v_x", "v_y"),
-                             position_names=("r_x", "r_y"))
+                             state_names=("xi_x", "xi_y", "xi_x_dot", "xi_y_dot"),
+                             position_names=("xi_x", "xi_y"))
 
 
 def positions(model, xs) -> np.ndarray:
@@ -955,7 +956,7 @@ def positions(model, xs) -> np.ndarray:
 
     ``positions(model, xs)`` is ``xs[..., model.index_of(*model.position_names)]``:
     columns 0 and 2 for the damped particle ``[x1, x1_dot, x2, x2_dot]``,
-    columns 0 and 1 for the vehicle ``[r_x, r_y, v_x, v_y]``.
+    columns 0 and 1 for the vehicle ``[xi_x, xi_y, xi_x_dot, xi_y_dot]``.
 
     Parameters
     ----------

@@ -103,7 +103,7 @@ def _planar(name: str, a: np.ndarray, model, want: str, *, square: bool = False)
     themselves; the full state width of ``model`` is reduced to the columns
     ``model.position_names``; anything else is an error. A full-state array
     without a model is refused: which two columns are positions differs
-    between models (``[x1, x1_dot, x2, x2_dot]`` against ``[r_x, r_y, v_x, v_y]``).
+    between models (``[x1, x1_dot, x2, x2_dot]`` against ``[xi_x, xi_y, xi_x_dot, xi_y_dot]``).
     """
     width = a.shape[-1]
     if square and a.shape[-2] != width:
@@ -177,7 +177,7 @@ def plot_track(ax, truth_xy, meas_xy=None, est_xy=None, covs_xy=None, every: int
 
     The positions are checked, never guessed: a state vector holds the
     positions in different columns from model to model (``[x1, x1_dot, x2,
-    x2_dot]`` for ``bf.models.damped_particle()``, ``[r_x, r_y, v_x, v_y]``
+    x2_dot]`` for ``bf.models.damped_particle()``, ``[xi_x, xi_y, xi_x_dot, xi_y_dot]``
     for ``bf.models.range_bearing()``). Pass either the two position columns
     (width 2) or full states together with ``model=``; full states without a
     model are refused::

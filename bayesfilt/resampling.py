@@ -39,16 +39,16 @@ noise they add, :math:`\operatorname{Var}(N_i)`. Import the module as
         a = scheme(w, rng, M=10)              # shape (10,), sorted ascending
 
 The picture: the inverse CDF. Stack the weights end to end on [0, 1): the
-cumulative weights :math:`C_i = W_0 + \dots + W_i` cut the interval into N
-pieces, piece i of length :math:`W_i`. Put M points :math:`p_j` in [0, 1)
+cumulative weights :math:`\Omega_i = W_0 + \dots + W_i` cut the interval into N
+pieces, piece i of length :math:`W_i`. Put M points :math:`u_j` in [0, 1)
 and give each the index of the piece it falls in, the first i with
-:math:`p_j < C_i`. For the example above (systematic, M = 4, u = 0.637)::
+:math:`u_j < \Omega_i`. For the example above (systematic, M = 4, v = 0.637)::
 
-    0    C_0                               C_1 C_2          C_3 = 1
+    0    Om_0                              Om_1 Om_2        Om_3 = 1
     |-----|-----------------------------------|--|--------------|
      W_0                 W_1                  W_2      W_3
               ^              ^              ^              ^
-    p_j = (j + u)/4 = 0.159, 0.409, 0.659, 0.909   ->   a = 1, 1, 1, 3
+    u_j = (j + v)/4 = 0.159, 0.409, 0.659, 0.909   ->   a = 1, 1, 1, 3
 
 A large weight is a long piece and catches several points, a small one is
 often missed. The four schemes differ only in how they place the points:
@@ -57,9 +57,9 @@ often missed. The four schemes differ only in how they place the points:
   multinomial, :math:`\operatorname{Var}(N_i) = M W_i (1 - W_i)`: the
   most noise, the reference the others are compared with.
 * **stratified** (Kitagawa 1996): cut [0, 1) into M strata of width 1/M and
-  put one independent uniform point in each, :math:`p_j = (j + u_j)/M`.
+  put one independent uniform point in each, :math:`u_j = (j + v_j)/M`.
 * **systematic** (Kitagawa 1996; Carpenter, Clifford & Fearnhead 1999): the
-  same, with a single uniform shared by all strata, :math:`p_j = (j + u)/M`:
+  same, with a single uniform shared by all strata, :math:`u_j = (j + v)/M`:
   the points form a comb of spacing 1/M, randomly shifted. Then
   :math:`N_i` is always :math:`\lfloor M W_i \rfloor` or
   :math:`\lceil M W_i \rceil`, the least possible spread for one count.
@@ -78,7 +78,7 @@ some orderings of the particles it does not even converge as N grows
 (Gerber, Chopin & Whiteley 2019). All four are unbiased.
 
 Stratified and systematic resampling are :func:`from_uniforms` fed with
-random uniforms; :func:`from_uniforms` takes the M uniforms :math:`u_j`
+random uniforms; :func:`from_uniforms` takes the M uniforms :math:`v_j`
 explicitly, which is what lets a test reproduce filterpy's
 ``stratified_resample`` and ``systematic_resample`` from the same random
 numbers, and what a figure of the comb uses.
@@ -145,36 +145,36 @@ def _check_M(M, N: int) -> int:
 
 
 def _below(w: np.ndarray, M: int, u) -> np.ndarray:
-    r"""For each i, the number of points :math:`p_j = (j + u_j)/M` below :math:`C_i`, shape (N,).
+    r"""For each i, the number of points :math:`u_j = (j + v_j)/M` below :math:`\Omega_i`, shape (N,).
 
     ``w`` are checked weights; ``u`` is an array (M,) of uniforms in [0, 1),
     or one float used for every j (systematic). O(N + M) and no search, by
     the counting argument below. The result is non-decreasing and ends at M.
     """
-    # M C_i = M (w_0 + ... + w_i) / sum(w): the cumulative weights on the scale
+    # M Omega_i = M (w_0 + ... + w_i) / sum(w): the cumulative weights on the scale
     # of the strata. Dividing by the last partial sum makes C_{N-1} = 1 exactly
     # (x / x == 1 in floating point) and keeps C non-decreasing and <= 1, so
-    # M C_i <= M with equality at the end: round-off cannot lose a point.
+    # M Omega_i <= M with equality at the end: round-off cannot lose a point.
     MC = np.cumsum(w)
     MC /= MC[-1]
     MC *= M
-    # below_i = number of points below C_i, in O(1) per i. Point j is below C_i
-    # iff j + u_j < M C_i. With k_i = floor(M C_i), this holds for every j < k_i
-    # (j + u_j < j + 1 <= k_i <= M C_i), for no j > k_i (j + u_j >= j >= k_i + 1
-    # > M C_i), and for j = k_i iff u_{k_i} < M C_i - k_i. Hence
-    #   below_i = k_i + [u_{k_i} < M C_i - k_i],
-    # and below_i = M when k_i = M (then M C_i - k_i = 0: the test is false).
-    # M C_i - k_i is computed exactly, so no further round-off enters.
+    # below_i = number of points below Omega_i, in O(1) per i. Point j is below Omega_i
+    # iff j + v_j < M Omega_i. With k_i = floor(M Omega_i), this holds for every j < k_i
+    # (j + v_j < j + 1 <= k_i <= M Omega_i), for no j > k_i (j + v_j >= j >= k_i + 1
+    # > M Omega_i), and for j = k_i iff v_{k_i} < M Omega_i - k_i. Hence
+    #   below_i = k_i + [v_{k_i} < M Omega_i - k_i],
+    # and below_i = M when k_i = M (then M Omega_i - k_i = 0: the test is false).
+    # M Omega_i - k_i is computed exactly, so no further round-off enters.
     # The arrays are as long as the particle set and fresh memory costs page
     # faults, so they are updated in place.
-    # k_i = floor(M C_i), by truncation since M C_i >= 0
+    # k_i = floor(M Omega_i), by truncation since M Omega_i >= 0
     k = MC.astype(np.intp)
-    # M C_i - k_i
+    # M Omega_i - k_i
     frac = np.subtract(MC, k, out=MC)
-    # u_{k_i}. k_i = M only where M C_i = M, and there the test is false
+    # v_{k_i}. k_i = M only where M Omega_i = M, and there the test is false
     # whatever u says, so clipping the look-up to u_{M-1} changes nothing.
     u_k = u if np.ndim(u) == 0 else np.take(u, k, mode="clip")
-    # below_i = k_i + [u_{k_i} < M C_i - k_i]
+    # below_i = k_i + [v_{k_i} < M Omega_i - k_i]
     below = k
     below += u_k < frac
     return below
@@ -196,14 +196,14 @@ def _expand(below: np.ndarray, M: int) -> np.ndarray:
 def from_uniforms(weights, uniforms) -> np.ndarray:
     r"""Ancestors of the M stratified points built from given uniforms.
 
-    The points are :math:`p_j = (j + u_j)/M`, :math:`j = 0, \dots, M-1`,
+    The points are :math:`u_j = (j + v_j)/M`, :math:`j = 0, \dots, M-1`,
     one in each stratum :math:`[j/M, (j+1)/M)`; point j gets the index of the
     first cumulative weight above it,
 
     .. math::
 
-        a_j = \min\{\, i : p_j < C_i \,\}, \qquad
-        C_i = \frac{w_0 + \dots + w_i}{w_0 + \dots + w_{N-1}}.
+        a_j = \min\{\, i : u_j < \Omega_i \,\}, \qquad
+        \Omega_i = \frac{w_0 + \dots + w_i}{w_0 + \dots + w_{N-1}}.
 
     Independent uniforms give stratified resampling, one uniform repeated M
     times gives systematic resampling. Given the same uniforms, this is
@@ -218,7 +218,7 @@ def from_uniforms(weights, uniforms) -> np.ndarray:
     weights : array_like, shape (N,)
         Non-negative importance weights, not all zero; normalised internally.
     uniforms : array_like, shape (M,)
-        :math:`u_j \in [0, 1)`, one per stratum. M >= 1 may differ from N.
+        :math:`v_j \in [0, 1)`, one per stratum. M >= 1 may differ from N.
 
     Returns
     -------
@@ -287,7 +287,7 @@ def multinomial(weights, rng, M=None) -> np.ndarray:
 def stratified(weights, rng, M=None) -> np.ndarray:
     r"""Stratified resampling (Kitagawa 1996): one uniform point per stratum.
 
-    :math:`p_j = (j + u_j)/M` with independent :math:`u_j \sim U[0, 1)`,
+    :math:`u_j = (j + v_j)/M` with independent :math:`v_j \sim U[0, 1)`,
     then :func:`from_uniforms`. Unbiased, :math:`E[N_i] = M W_i`, and never
     noisier than multinomial resampling (Douc, Cappé & Moulines 2005).
     Every count differs from :math:`M W_i` by less than 2 (up to round-off
@@ -327,7 +327,7 @@ def stratified(weights, rng, M=None) -> np.ndarray:
 def systematic(weights, rng, M=None) -> np.ndarray:
     r"""Systematic resampling: a comb of M points with one random offset.
 
-    :math:`p_j = (j + u)/M` with a single :math:`u \sim U[0, 1)`, then
+    :math:`u_j = (j + v)/M` with a single :math:`v \sim U[0, 1)`, then
     :func:`from_uniforms`. Unbiased, :math:`E[N_i] = M W_i`, and every count
     is :math:`\lfloor M W_i \rfloor` or :math:`\lceil M W_i \rceil` (up to
     round-off in the cumulative weights). The usual default, also

@@ -368,7 +368,7 @@ def mc_moments(label: str, draws, mean, cov) -> None:
     -----
     The ``k = d + d (d + 1) / 2`` entries (means and the upper triangle of
     the sample covariance, ``np.cov``'s, with ``M - 1``) share the false-alarm
-    probability :data:`ALPHA` by the union bound, ``ALPHA / (2k)`` on each
+    probability ``ALPHA`` by the union bound, ``ALPHA / (2k)`` on each
     side of each entry, and every limit is exact or a proven bound for
     Gaussian draws, with no normal approximation:
 
@@ -379,7 +379,7 @@ def mc_moments(label: str, draws, mean, cov) -> None:
       chi-square quantiles;
     * an off-diagonal sample covariance has chi-square-like tails too: its
       limits are Laurent & Massart's (2000) bounds for sums of
-      :math:`\lambda(g^2 - 1)` (:func:`_covariance_limits`), a little wider
+      :math:`\lambda(g^2 - 1)` (``_covariance_limits``), a little wider
       (about 5 SE where a normal would allow 4.4 to 4.6).
 
     The recorded detail gives the largest deviation in standard errors,

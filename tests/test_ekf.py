@@ -251,7 +251,7 @@ def test_range_bearing_jacobian_closed_form():
 
 def _crossing_run():
     model = bf.models.range_bearing(m0=(-10.0, 5.0, 0.0, 0.0), prior_var=4.0)
-    x0 = np.array([-10.0, 5.0, 0.0, -0.2])  # r_y = 0 (bearing +pi -> -pi) at t = 25
+    x0 = np.array([-10.0, 5.0, 0.0, -0.2])  # xi_y = 0 (bearing +pi -> -pi) at t = 25
     sim = bf.models.simulate(model, 60, np.random.default_rng(5), x0=x0)
     return model, sim
 

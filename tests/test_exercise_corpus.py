@@ -527,7 +527,7 @@ CH04 = [
     Row("4.3", (lambda *a: iterated(*a, mode="fixed_H"), LIMIT), INCORRECT, "keep the Jacobian of m0"),
     Row("4.3", (iterated, iterated(RB.m0, RB.P0, Y0, 1)[:2]), INCORRECT, "answer_3 is x^(1), the ordinary"),
     Row("4.3", (iterated, iterated(RB.m0, RB.P0, Y0, 50)), INCORRECT, "answer_3 is a whole state"),
-    Row("4.3", (iterated, LIMIT[::-1]), INCORRECT, "answer_3 has r_x and r_y swapped"),
+    Row("4.3", (iterated, LIMIT[::-1]), INCORRECT, "answer_3 has xi_x and xi_y swapped"),
     Row("4.3", (lambda *a: iterated(*a)[:2], LIMIT), INCORRECT, "return the whole state x^(n_iter)"),
     right(turn_jacobian), right(lambda x: turn_jacobian(x, F32)),
     Row("4.4", (lambda x: turn_jacobian(x).T,), INCORRECT, "F is transposed"),
@@ -683,7 +683,7 @@ def answer_6_3() -> tuple:
 CH06 = [
     right(systematic), right(lambda w, u: systematic(w, u).astype(np.int32)),
     Row("6.1", (lambda w, u: np.bincount(systematic(w, u), minlength=len(w)),), INCORRECT, "returns offspring counts"),
-    Row("6.1", (lambda w, u: (np.arange(len(w)) + u) / len(w),), INCORRECT, "returns the points p_j"),
+    Row("6.1", (lambda w, u: (np.arange(len(w)) + u) / len(w),), INCORRECT, "returns the points u_j"),
     Row("6.1", (lambda w, u: systematic(w, u) + 1,), INCORRECT, "'s indices are shifted by one"),
     Row("6.1", (lambda w, u: np.searchsorted(np.cumsum(w), (np.arange(len(w)) + u) / len(w), side="right"),),
         INCORRECT, "does not normalise the weights"),

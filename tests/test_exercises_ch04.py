@@ -178,7 +178,7 @@ def test_ex1_accepts_the_hand_derivation_and_refuses_central_differences():
 
 
 def _arctan_route(x):
-    """The derivation through arctan(r_y / r_x), not simplified: NaN where r_x = 0."""
+    """The derivation through arctan(xi_y / xi_x), not simplified: NaN where xi_x = 0."""
     rx, ry = x[0], x[1]
     rho = np.hypot(rx, ry)
     u = ry / rx
@@ -209,8 +209,8 @@ def _reads_r_y_from_v_x(x):
     (lambda x: jacobian_by_hand(x)[::-1], ["test input 1", "rows are swapped"]),
     (lambda x: jacobian_by_hand(x).T, ["transposed", "shape (2, 4)"]),
     (lambda x: _chapter_03_order(x, read=False), ["chapter 03's state order", "columns 0 and 1"]),
-    (_chapter_03_order, ["chapter 03's order", "r_y = x[2]"]),
-    (_reads_r_y_from_v_x, ["you read r_y from x[2]"]),
+    (_chapter_03_order, ["chapter 03's order", "xi_y = x[2]"]),
+    (_reads_r_y_from_v_x, ["you read xi_y from x[2]"]),
     (lambda x: jacobian_by_hand(x) * np.array([[1.0], [-1.0]]), ["bearing row has the wrong sign"]),
     (lambda x: -jacobian_by_hand(x), ["both rows have the wrong sign"]),
     (lambda x: jacobian_by_hand(x) * np.array([[1.0], [np.hypot(x[0], x[1])]]),
@@ -220,7 +220,7 @@ def _reads_r_y_from_v_x(x):
     (lambda x: jacobian_by_hand(x) * np.array([[2 * np.hypot(x[0], x[1])], [1.0]]),
      ["derivative of rho^2"]),
     (lambda x: jacobian_by_hand(x)[:, :2], ["velocities do not enter h", "(2, 2)"]),
-    (_arctan_route, ["test input 5", "r_y axis", "NaN or inf", "simplify"]),
+    (_arctan_route, ["test input 5", "xi_y axis", "NaN or inf", "simplify"]),
     (_arctan_route_floats, ["test input 5", "ZeroDivisionError", "only rho^2"]),
 ])
 def test_ex1_diagnoses(fun, phrases):
@@ -234,7 +234,7 @@ def test_ex1_an_unrecognised_mistake_names_the_partial_derivative():
         H = jacobian_by_hand(x)
         H[1, 0] += 0.01
         return H
-    wrong(ch04.exercise_1(off), "d beta / d r_x", "entry (1, 0)")
+    wrong(ch04.exercise_1(off), "d beta / d xi_x", "entry (1, 0)")
 
 
 def test_ex1_the_check_prints_no_warning(recwarn):
@@ -301,7 +301,7 @@ def test_ex2_accepts_the_closed_form_and_central_differences():
 def notebook_experiment():
     """The function the answer cell gives, run with the chapter's variables."""
     namespace = {"np": np, "bf": bf, "dataclasses": dataclasses, "model": MODEL,
-                 "x_start": bf.models.RANGE_BEARING_TRUE_START, "pos": MODEL.index_of("r_x", "r_y")}
+                 "x_start": bf.models.RANGE_BEARING_TRUE_START, "pos": MODEL.index_of("xi_x", "xi_y")}
     cells = _exercise_cells()[2]
     return _given(cells.get("given", "") + cells["answer"], namespace)["nees_from_first_measurement"]
 
@@ -350,7 +350,7 @@ def _J(y, rho_in=True):
     (lambda y: np.diag(np.diag(_J(y) @ R @ _J(y).T)), ["only the diagonal"]),
     (lambda y: (lambda J: J @ R @ J.T)(np.array([[np.sin(y[1]), y[0] * np.cos(y[1])],
                                                  [np.cos(y[1]), -y[0] * np.sin(y[1])]])),
-     ["from the r_y axis"]),
+     ["from the xi_y axis"]),
     (lambda y: inv(_J(y) @ R @ _J(y).T), ["precision"]),
 ])
 def test_ex2_diagnoses_of_converted_cov(fun, phrases):
@@ -626,7 +626,7 @@ def test_ex4_an_unrecognised_mistake_names_the_partial_derivative():
         F = turn_by_hand(x)
         F[3, 4] += 0.5
         return F
-    wrong(ch04.exercise_4(off), "d v_y(t+1) / d omega", "entry (3, 4)")
+    wrong(ch04.exercise_4(off), "d xi_y_dot(t+1) / d omega", "entry (3, 4)")
 
 
 def test_ex4_not_attempted_and_garbage():

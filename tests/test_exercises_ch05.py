@@ -429,6 +429,61 @@ def test_ex5_not_attempted_and_never_raises():
 
 
 # --------------------------------------------------------------------------
+# a teacher's edited statement is honoured (the checks read the answer cells' variables)
+# --------------------------------------------------------------------------
+
+def test_ex1_the_statement_s_arrays_are_tested():
+    """An edited log_w_under_1 is the first test input: a function that fails only there is caught."""
+    edited = np.array([-3000.0, -3000.5, -np.inf])
+    def fails_on_the_edit(lw):
+        if lw.size == 3 and np.isneginf(lw[-1]) and lw[0] == -3000.0:
+            return lw, 0.0
+        return right_log_normalize(lw)
+    assert ch05.exercise_1(fails_on_the_edit).correct                 # the statement's own arrays
+    _assert_wrong(ch05.exercise_1(fails_on_the_edit, namespace={"log_w_under_1": edited}), "test input 1")
+    assert ch05.exercise_1(right_log_normalize, namespace={"log_w_under_1": edited,
+                                                           "log_w_over_1": np.array([900.0, 1.0])}).correct
+
+
+def test_ex2_an_edited_statement_is_honoured():
+    ns = {"weights_a_2": np.array([0.7, 0.1, 0.1, 0.1])}
+    right = [_ess([0.7, 0.1, 0.1, 0.1]), RIGHT_2[1], RIGHT_2[2]]
+    assert ch05.exercise_2(right, namespace=ns).correct
+    _assert_wrong(ch05.exercise_2(RIGHT_2, namespace=ns), "answer_2[0], the ESS of the weights (a)")
+
+
+def test_ex4_an_edited_step_is_honoured():
+    """With t_boot_4 = 6 the helper must read the bootstrap's ESS at t = 6, not at the statement's 5."""
+    def mean_ess_at(t_boot):
+        def mean_ess(R):
+            lg = bf.models.LinearGaussian(A=[[A]], C=[[C]], Q=[[Q]], R=[[R]], m0=[0.0], P0=[[1.0]])
+            rec, rngs = np.random.default_rng(14), [np.random.default_rng(15) for _ in range(2)]
+            b, o = [], []
+            for _ in range(10):
+                ys = bf.models.simulate(lg, 40, rec).ys
+                b.append(bf.particle.particle_filter(lg, ys, 500, rngs[0], ess_threshold=0).ess[t_boot])
+                o.append(bf.particle.particle_filter(lg, ys, 500, rngs[1], ess_threshold=0,
+                                                     proposal=bf.particle.optimal_proposal(lg)).ess[39])
+            return np.mean(b), np.mean(o)
+        return mean_ess
+    ns = {"mean_ess": mean_ess_at(6), "t_boot_4": 6}
+    assert ch05.exercise_4((0.01, 1.0), namespace=ns).correct
+    fb = ch05.exercise_4((0.01, 1.0), namespace={"mean_ess": mean_ess_at(5), "t_boot_4": 6})
+    _assert_wrong(fb, "mean_ess(0.01) reads the bootstrap's ESS at t = 5: index 6")
+
+
+def test_the_messages_use_the_chapter_s_words():
+    """eq. (8), not the source's eq. (13); the process noise is never w (a weight in chapters 05-06)."""
+    assert "eq. (8)" in ch05.exercise_3(right_increment).message
+    fb = ch05.exercise_3(_with(var=R))
+    _assert_wrong(fb, "y_t = C x_t + v_t with x_t ~ N(A x_(t-1), Q)")
+    for wrong in (["a", "b", "c"], ["b"], []):
+        message = ch05.exercise_5(wrong).message
+        assert "w_(t-1)" not in message and "new process noise" in message, message
+    assert "new process noise" in ch05.exercise_5(["b", "c"]).message
+
+
+# --------------------------------------------------------------------------
 # the statements in the notebook give the numbers the checks use
 # --------------------------------------------------------------------------
 

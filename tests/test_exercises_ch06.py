@@ -159,7 +159,7 @@ def test_ex1_the_wrong_comb():
     _assert_wrong(ch06.exercise_1(additive_unclipped), "j/N + u", "(j + u)/N")
     fb = ch06.exercise_1(additive)
     assert fb.status == INCORRECT and "test input 1" in fb.message, fb
-    _assert_wrong(ch06.exercise_1(lambda w, u: (np.arange(len(w)) + u) / len(w)), "points p_j")
+    _assert_wrong(ch06.exercise_1(lambda w, u: (np.arange(len(w)) + u) / len(w)), "points u_j")
 
 
 def test_ex1_floats_lengths_and_in_place_changes():
@@ -191,7 +191,7 @@ def test_ex1_an_unrecognised_mistake_names_the_point():
         a[2] = a[3]                          # [1, 1, 3, 3, 4, 5] on the statement's input
         return a
 
-    _assert_wrong(ch06.exercise_1(half_wrong), "test input 1", "j = 2", "first i with p_j < Ω^(i)")
+    _assert_wrong(ch06.exercise_1(half_wrong), "test input 1", "j = 2", "first i with u_j < Ω^(i)")
 
 
 def test_ex1_not_attempted_and_never_raises():
@@ -208,7 +208,7 @@ def test_ex1_not_attempted_and_never_raises():
 
 
 # --------------------------------------------------------------------------
-# Exercise 2: E[N^(2)] and Var(N^(2)) under three schemes
+# Exercise 2: E[O^(2)] and Var(O^(2)) under three schemes
 # --------------------------------------------------------------------------
 
 RIGHT_2 = np.array([2.8, 2.016, 0.16, 0.48])   # M W, M W (1 - W), f (1 - f), f (1 - f/R); f = 0.8, R = 2
@@ -251,7 +251,7 @@ def test_ex2_the_multinomial_variance():
 def test_ex2_the_systematic_variance():
     _assert_wrong(ch06.exercise_2([2.8, 2.016, 2.016, 0.48]), "answer_2[2]", "multinomial variance",
                   "floor(M W^(2)) or ceil(M W^(2))")
-    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.8, 0.48]), "probability that N^(2) takes the larger")
+    _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.8, 0.48]), "probability that O^(2) takes the larger")
     _assert_wrong(ch06.exercise_2([2.8, 2.016, 0.0, 0.48]), "always the same number")
 
 
@@ -371,10 +371,10 @@ def test_ex3_not_attempted_and_never_raises():
 # Exercise 4: tuning roughening
 # --------------------------------------------------------------------------
 
-def _roughened_lost_and_nees(model, sims, K, seed):
+def _roughened_lost_and_nees(model, sims, kappa, seed):
     """(lost runs, median NEES over t >= 30) of SIR with roughening, written out here."""
     rng = np.random.default_rng(seed)
-    position = model.index_of("r_x", "r_y")
+    position = model.index_of("xi_x", "xi_y")
     d, N = 4, 500
     lost, nees = 0, []
     for xs, ys in zip(sims.xs, sims.ys):
@@ -390,7 +390,7 @@ def _roughened_lost_and_nees(model, sims, K, seed):
             errors.append(xs[t] - mean)
             covs.append((X - mean).T @ (W[:, None] * (X - mean)))
             X = X[bf.resampling.systematic(W, rng)]
-            X = X + K * (X.max(axis=0) - X.min(axis=0)) * N ** (-1 / d) * rng.standard_normal(X.shape)
+            X = X + kappa * (X.max(axis=0) - X.min(axis=0)) * N ** (-1 / d) * rng.standard_normal(X.shape)
         run_nees = []
         for e, c in zip(errors, covs):
             with contextlib.suppress(np.linalg.LinAlgError):
@@ -407,9 +407,9 @@ def right_4():
     vehicle = bf.models.range_bearing()
     sims = bf.models.simulate_many(vehicle, 20, 60, np.random.default_rng(401),
                                    x0=bf.models.RANGE_BEARING_TRUE_START)
-    results = {K: _roughened_lost_and_nees(vehicle, sims, K, seed=402) for K in (0.1, 0.2, 2.0)}
-    K_min = min(K for K, (lost, _) in results.items() if lost <= 5)
-    return K_min, "overconfident" if results[K_min][1] > stats.chi2.median(4) else "conservative", results
+    results = {k: _roughened_lost_and_nees(vehicle, sims, k, seed=402) for k in (0.1, 0.2, 2.0)}
+    kappa_min = min(k for k, (lost, _) in results.items() if lost <= 5)
+    return kappa_min, "overconfident" if results[kappa_min][1] > stats.chi2.median(4) else "conservative", results
 
 
 def _exercise_4_500(*answers):
@@ -417,15 +417,15 @@ def _exercise_4_500(*answers):
 
 
 def test_ex4_the_right_answer_is_accepted_with_other_seeds(right_4):
-    K_min, verdict, results = right_4
-    assert (K_min, verdict) == (2.0, "conservative"), results
+    kappa_min, verdict, results = right_4
+    assert (kappa_min, verdict) == (2.0, "conservative"), results
     assert results[0.1][0] > 5 and results[0.2][0] > 5, results
-    fb = _exercise_4_500((K_min, verdict))
+    fb = _exercise_4_500((kappa_min, verdict))
     assert fb.status == CORRECT, fb
-    assert _exercise_4_500([np.float64(K_min), " Conservative "]).correct
-    assert _exercise_4_500((K_min, "below")).correct
+    assert _exercise_4_500([np.float64(kappa_min), " Conservative "]).correct
+    assert _exercise_4_500((kappa_min, "below")).correct
     # "below 4" compares with the mean, which the statement warns against
-    _assert_wrong(_exercise_4_500((K_min, "below 4")), "must be one of the words")
+    _assert_wrong(_exercise_4_500((kappa_min, "below 4")), "must be one of the words")
 
 
 def test_ex4_a_k_too_small_or_larger_than_needed():
@@ -446,7 +446,7 @@ def test_ex4_not_a_k_and_the_pair_swapped():
     _assert_wrong(_exercise_4_500((0, "conservative")), "one of the roughening constants", "lost runs")
     _assert_wrong(_exercise_4_500((0.3, "conservative")), "one of the roughening constants")
     _assert_wrong(_exercise_4_500(("conservative", 2.0)), "wrong order")
-    _assert_wrong(_exercise_4_500(0.5), "pair (K_min, verdict)")
+    _assert_wrong(_exercise_4_500(0.5), "pair (kappa_min, verdict)")
 
 
 def test_ex4_not_attempted_and_never_raises():
@@ -457,6 +457,47 @@ def test_ex4_not_attempted_and_never_raises():
 
 
 # --------------------------------------------------------------------------
+# a teacher's edited statement is honoured (the checks read the answer cells' variables)
+# --------------------------------------------------------------------------
+
+def test_ex1_the_statement_s_try_out_is_the_first_input():
+    edited = {"W_1": np.array([0.5, 0.25, 0.25]), "u_1": 0.25}
+    def fails_on_the_edit(w, u):
+        if len(w) == 3 and u == 0.25 and w[0] == 0.5:
+            return np.array([0, 1, 2])
+        return searchsorted_systematic(w, u)
+    assert ch06.exercise_1(fails_on_the_edit).correct
+    _assert_wrong(ch06.exercise_1(fails_on_the_edit, namespace=edited), "test input 1")
+
+
+def test_ex2_an_edited_statement_is_honoured():
+    """W = (0.1, 0.45, 0.25, 0.2), M = 8: M W^(2) = 3.6, phi = 0.6, floors 0, 3, 2, 1, so M~ = 2."""
+    ns = {"W_2": np.array([0.1, 0.45, 0.25, 0.2]), "M_2": 8}
+    right = [3.6, 8 * 0.45 * 0.55, 0.6 * 0.4, 0.6 * (1 - 0.6 / 2)]
+    assert ch06.exercise_2(right, namespace=ns).correct
+    _assert_wrong(ch06.exercise_2(RIGHT_2, namespace=ns), "answer_2[0]")
+    _assert_wrong(ch06.exercise_2(right, namespace={}), "answer_2[0]")
+
+
+def test_ex3_the_notebook_s_records_and_seed_are_used(right_3):
+    """With the notebook's batch_lg and seed_filters_3 = 302 (the test's own seeds), the check's
+    reference is that experiment: the right answer for those seeds is accepted."""
+    lg = bf.models.LinearGaussian(A=[[0.9]], C=[[1.0]], Q=[[1.0]], R=[[1.0]], m0=[0.0], P0=[[1.0]])
+    ns = {"batch_lg": bf.models.simulate_many(lg, 20, 50, np.random.default_rng(301)), "lg_bench": lg,
+          "seed_filters_3": 302, "N_3": 500}
+    counts, worst = right_3
+    assert ch06.exercise_3((counts, worst), namespace=ns).correct
+    _assert_wrong(ch06.exercise_3((counts * 2, worst), namespace=ns), "answer_3[0]")
+
+
+def test_ex4_kappa_values_are_read_from_the_notebook():
+    ns = {"kappa_values": (2.0, 4.0)}
+    assert ch06.exercise_4((2.0, "conservative"), 500, namespace=ns).correct
+    _assert_wrong(ch06.exercise_4((0.1, "conservative"), 500, namespace=ns),
+                  "must be one of the roughening constants [2.0, 4.0]")
+
+
+# --------------------------------------------------------------------------
 # the statements in the notebook give the numbers the checks use
 # --------------------------------------------------------------------------
 
@@ -464,7 +505,7 @@ def test_the_notebook_states_the_numbers_of_the_checks():
     cells = json.loads(NOTEBOOK.read_text(encoding="utf-8"))["cells"]
     text = "\n".join("".join(c["source"]) for c in cells)
     exercises = text[text.index("## Exercises"):]
-    for fragment in ["(0.05, 0.32, 0.08, 0.22, 0.13, 0.20)", "$u = 0.5$", "$p_j = (j + u)/N$",
+    for fragment in ["(0.05, 0.32, 0.08, 0.22, 0.13, 0.20)", "$u = 0.5$", "$u_j = (j + u)/N$",
                      "$W = (0.42, 0.28, 0.18, 0.12)$", "$M = 10$", "particle 1",
                      "$\\theta = 0.1$, $0.5$ and $0.9$", "$N = 500$", "`np.random.default_rng(16)`",
                      "$(0.1, 0.2, 2.0)$", "`np.random.default_rng(28)`", "above 5 m",
@@ -476,7 +517,7 @@ def test_the_notebook_states_the_numbers_of_the_checks():
     assert ch06.SIX_WEIGHTS == tuple(SIX) and ch06.U_STATEMENT == 0.5
     assert ch06.WEIGHTS_2 == tuple(W2) and ch06.M_2 == M2 and ch06.PARTICLE_2 == 1
     assert ch06.THRESHOLDS_3 == (0.1, 0.5, 0.9) and ch06.N_3 == 500 and ch06.SEED_FILTERS_3 == 16
-    assert ch06.K_VALUES_4 == (0.1, 0.2, 2.0) and ch06.SEED_FILTERS_4 == 28
+    assert ch06.KAPPA_VALUES_4 == (0.1, 0.2, 2.0) and ch06.SEED_FILTERS_4 == 28
     assert ch06.N_4 == 500
     wrong_n = ch06.exercise_4((2.0, "conservative"), "500")
     assert wrong_n.status == INCORRECT and "passes N_4" in wrong_n.message

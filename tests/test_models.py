@@ -255,7 +255,7 @@ def test_range_bearing_residual_wraps_the_bearing_only():
 
 def test_range_bearing_measurement_uses_atan2():
     model = bf.models.range_bearing()
-    # A point in the third quadrant: arctan(r_y / r_x) would give +pi/4.
+    # A point in the third quadrant: arctan(xi_y / xi_x) would give +pi/4.
     y = model.measurement_mean(np.array([-3.0, -3.0, 0.0, 0.0]))
     np.testing.assert_allclose(y, [np.sqrt(18.0), -3 * np.pi / 4], atol=1e-12)
     np.testing.assert_allclose(bf.models.RANGE_BEARING_TRUE_START, [10.0, -5.0, -0.2, 0.2])
@@ -374,9 +374,9 @@ def test_state_names_and_positions_select_by_name():
     # independent reference: the documented column orders of the two seeds
     np.testing.assert_array_equal(bf.models.positions(dp, xs), xs[:, [0, 2]])
     np.testing.assert_array_equal(bf.models.positions(rb, xs), xs[:, [0, 1]])
-    assert dp.index_of("x2_dot") == [3] and rb.index_of("v_x") == [2]
+    assert dp.index_of("x2_dot") == [3] and rb.index_of("xi_x_dot") == [2]
     with pytest.raises(ValueError, match="unknown state component"):
-        dp.index_of("r_x")
+        dp.index_of("xi_x")
     with pytest.raises(ValueError, match=r"xs must have shape \(\.\.\., 4\)"):
         bf.models.positions(dp, xs[:, :2])
     with pytest.raises(ValueError, match="state_names must be 2 distinct strings"):

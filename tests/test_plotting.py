@@ -144,7 +144,7 @@ def test_plot_track_names_the_bad_covariance(ax):
 
 # --------------------------------------------------------------------------
 # Planar positions are checked, never guessed (issue 8: the damped particle's
-# state is [x1, x1_dot, x2, x2_dot], the vehicle's [r_x, r_y, v_x, v_y]).
+# state is [x1, x1_dot, x2, x2_dot], the vehicle's [xi_x, xi_y, xi_x_dot, xi_y_dot]).
 # --------------------------------------------------------------------------
 
 def _states(T=6, n=4, seed=1):

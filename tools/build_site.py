@@ -9,18 +9,25 @@ Usage (from the repository root, with the site's dependencies installed)::
 
 What it does:
 
-1. stages ``site/`` (the Sphinx configuration, the landing page, the CSS)
-   into ``build/site-src/``;
-2. writes the **student edition** of the chapters there with
+1. stages ``site/`` (the Sphinx configuration, the landing page, the
+   notation page, the CSS and JavaScript, the favicon) into ``build/site-src/``;
+2. finds the chapters (every ``notebooks/NN_*.ipynb``, so a new chapter needs
+   no change here), writes their **student edition** there with
    ``tools/make_student_edition.py`` (exercise solutions replaced by stubs,
    every other stored output kept as it is), and puts a box under each
    chapter's title with a link to download that notebook, a Binder launch
-   link and a note on running it locally;
-3. takes the notation page from the README's ``## Notation`` section, the
-   set-up commands from its ``## Set-up`` section and the instructor's
-   guide from ``INSTRUCTORS.md`` (links into the repository are pointed at
-   the chapter pages or at GitHub), and writes one API page per
-   ``bayesfilt`` module (autodoc + numpydoc, every public name);
+   link and a note on running it locally. The student notebooks are also
+   served as ``notebooks/NN_*.ipynb`` (and all of them as one zip) for the
+   header's download menu. A chapter whose notebook metadata holds
+   ``{"bayesfilt": {"beyond_sources": true}}`` is marked "beyond the source
+   notes", under its title and in the landing page's chapter list;
+3. takes the set-up commands from the README's ``## Set-up`` section, the
+   instructor's guide from ``INSTRUCTORS.md`` and, if the file exists, the
+   glossary page from ``GLOSSARY.md`` (links into the repository are pointed
+   at the chapter pages or at GitHub; a bare chapter number ``NN`` in a
+   glossary table's "chapter" column becomes a link to that chapter), and
+   writes one API page per ``bayesfilt`` module (autodoc + numpydoc, every
+   public name);
 4. runs Sphinx (myst-nb with execution off, sphinx-book-theme, MathJax 3
    from ``sphinx-mathjax-offline``) with ``-W --keep-going``: any warning,
    e.g. an unresolved reference, fails the build.
@@ -31,7 +38,12 @@ keeps current, so nothing is executed and the build needs no kernel.
 The Binder and GitHub links name the repository ``owner/name``: taken from
 ``--repository``, else the ``GITHUB_REPOSITORY`` variable (set by GitHub
 Actions), else the ``origin`` remote if it is on GitHub, else the
-placeholder ``OWNER/bayesfilt``.
+placeholder ``OWNER/bayesfilt`` (with a note on stderr). A build from a ZIP
+or a clone without a GitHub remote should say ``--repository OWNER/NAME``.
+
+The notation page (``site/notation.md``) is written by hand, in maths; it
+follows the README's ``## Notation`` tables row for row, which
+``tests/test_site.py`` checks.
 """
 
 from __future__ import annotations
@@ -55,7 +67,9 @@ OUT = ROOT / "build" / "site"
 DOCTREES = ROOT / "build" / "site-doctrees"
 CHAPTER_GLOB = "[0-9][0-9]_*.ipynb"
 PLACEHOLDER_REPOSITORY = "OWNER/bayesfilt"
-
+NOTEBOOKS = ROOT / "notebooks"
+GLOSSARY = ROOT / "GLOSSARY.md"
+ZIP_NAME = "bayesfilt-student-notebooks.zip"
 
 
 class SiteError(RuntimeError):
@@ -162,8 +176,8 @@ def run_box(name: str, download: str, repository: str, branch: str) -> str:
         "```{admonition} Run this chapter",
         ":class: tip run-this-chapter",
         "",
-        f"{{download}}`Download this notebook <{download}>` (the student edition shown here: "
-        f"the exercises are stubs for you to fill in) ·",
+        f'<a class="reference download" href="{download}" download>Download this notebook</a> '
+        f"(the student edition shown here: the exercises are stubs for you to fill in) ·",
         f"[Launch it on Binder]({binder_url(repository, branch, name)}) "
         f"(opens the repository's notebook, with the solutions, in JupyterLab) ·",
         f"[see it on GitHub]({github_url(repository, branch, 'notebooks/' + name)})",
@@ -201,7 +215,49 @@ def _source(cell: dict) -> str:
     return "".join(source) if isinstance(source, list) else source
 
 
-def snapshot_notebooks(stage_dir: Path) -> Path:
+def chapter_title(nb: dict) -> str:
+    """The text of a notebook's first level-1 heading (``# 01 · Title``), or ``""``."""
+    for cell in nb.get("cells", []):
+        if cell.get("cell_type") == "markdown":
+            for line in _source(cell).splitlines():
+                if line.startswith("# "):
+                    return line[2:].strip()
+    return ""
+
+
+def beyond_sources(nb: dict) -> bool:
+    """Whether the notebook's metadata marks it ``{"bayesfilt": {"beyond_sources": true}}``."""
+    marks = nb.get("metadata", {}).get("bayesfilt", {})
+    return isinstance(marks, dict) and marks.get("beyond_sources") is True
+
+
+BEYOND_BADGE = ('<span class="beyond-sources-badge" title="This chapter is not in the three source '
+                'documents the course follows">beyond the source notes</span>')
+
+
+def beyond_note() -> str:
+    """The markdown under the title of a chapter that goes beyond the source notes."""
+    return (f"{BEYOND_BADGE} This chapter goes beyond the three source documents that the "
+            "course follows: its derivations, checks and examples are the course's own.\n")
+
+
+def chapter_list(chapters: list[tuple[str, str, bool]]) -> str:
+    """Markdown of the landing page's chapter list: a hidden toctree (the sidebar) and a list.
+
+    ``chapters`` holds ``(docname, title, beyond_sources)`` in the course's order.
+    """
+    toc = "\n".join(doc for doc, _, _ in chapters)
+    items = "\n".join(f"- {{doc}}`{title.replace('`', '')} </{doc}>`"
+                      + (f" {BEYOND_BADGE}" if beyond else "")
+                      for doc, title, beyond in chapters)
+    note = ("\nChapters marked *beyond the source notes* go further than the three source documents "
+            "the course follows; their derivations and checks are the course's own.\n"
+            if any(beyond for _, _, beyond in chapters) else "")
+    return ("```{toctree}\n:hidden:\n:maxdepth: 1\n:caption: Chapters\n\n" + toc + "\n```\n\n"
+            + items + "\n" + note)
+
+
+def snapshot_notebooks(stage_dir: Path, notebooks_dir: Path = NOTEBOOKS) -> Path:
     """Copy the chapter notebooks and the student-edition tool into ``stage_dir/_snapshot``.
 
     The whole site is made from this one copy, so a notebook saved while the site builds
@@ -212,7 +268,7 @@ def snapshot_notebooks(stage_dir: Path) -> Path:
     (snap / "notebooks").mkdir(parents=True)
     (snap / "tools").mkdir()
     shutil.copy2(ROOT / "tools" / "make_student_edition.py", snap / "tools")
-    for path in sorted((ROOT / "notebooks").glob(CHAPTER_GLOB)):
+    for path in sorted(notebooks_dir.glob(CHAPTER_GLOB)):
         for attempt in range(20):
             data = path.read_bytes()
             try:
@@ -220,7 +276,7 @@ def snapshot_notebooks(stage_dir: Path) -> Path:
                 break
             except ValueError:
                 if attempt == 19:
-                    raise SiteError(f"{path.relative_to(ROOT)} is not a valid notebook (JSON)") from None
+                    raise SiteError(f"{path} is not a valid notebook (JSON)") from None
                 time.sleep(0.5)
         (snap / "notebooks" / path.name).write_bytes(data)
     return snap
@@ -251,13 +307,16 @@ def replace_widget_reprs(nb: dict) -> int:
     return count
 
 
-def stage_chapters(stage_dir: Path, repository: str, branch: str, docs: dict[str, str]) -> list[Path]:
+def stage_chapters(stage_dir: Path, repository: str, branch: str, docs: dict[str, str],
+                   notebooks_dir: Path = NOTEBOOKS) -> list[tuple[str, str, bool]]:
     """Write the student edition into the stage, one page per chapter (with the run box).
 
     The student edition is made by ``tools/make_student_edition.py OUTPUT_DIR``, run from the
-    snapshot, whose ``notebooks/`` folder is then the one it reads.
+    snapshot, whose ``notebooks/`` folder is then the one it reads. The student notebooks and
+    their zip go to ``_extra/notebooks/`` (served as ``notebooks/`` of the site). Returns the
+    chapters as ``(docname, title, beyond_sources)``, in order.
     """
-    snap = snapshot_notebooks(stage_dir)
+    snap = snapshot_notebooks(stage_dir, notebooks_dir)
     student = stage_dir / "student-notebooks"
     result = subprocess.run([sys.executable, str(snap / "tools" / "make_student_edition.py"),
                              str(student)], cwd=snap, capture_output=True, text=True, check=False)
@@ -268,24 +327,29 @@ def stage_chapters(stage_dir: Path, repository: str, branch: str, docs: dict[str
         raise SiteError(f"no chapter notebooks {CHAPTER_GLOB} in notebooks/")
     chapters = stage_dir / "chapters"
     chapters.mkdir()
-    pages = []
+    served = stage_dir / "_extra" / "notebooks"
+    served.mkdir(parents=True)
+    found = []
     for path in notebooks:
+        shutil.copy2(path, served / path.name)
         nb = json.loads(path.read_text(encoding="utf-8"))
         replace_widget_reprs(nb)
         for cell in nb["cells"]:
             if cell.get("cell_type") == "markdown":
                 cell["source"] = rewrite_links(_source(cell), docs, repository, branch, "notebooks")
         box = {"cell_type": "markdown", "metadata": {}, "id": "site-run-this-chapter",
-               "source": run_box(path.name, f"../student-notebooks/{path.name}", repository, branch)}
+               "source": run_box(path.name, f"../notebooks/{path.name}", repository, branch)}
+        beyond = beyond_sources(nb)
+        if beyond:
+            box["source"] = beyond_note() + "\n" + box["source"]
         nb["cells"] = insert_after_title(nb["cells"], box)
-        page = chapters / path.name
-        page.write_text(json.dumps(nb, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
-        pages.append(page)
-    with zipfile.ZipFile(stage_dir / "_generated" / "bayesfilt-student-notebooks.zip", "w",
-                         zipfile.ZIP_DEFLATED) as archive:
+        (chapters / path.name).write_text(json.dumps(nb, indent=1, ensure_ascii=False) + "\n",
+                                          encoding="utf-8")
+        found.append((f"chapters/{path.stem}", chapter_title(nb) or path.stem, beyond))
+    with zipfile.ZipFile(served / ZIP_NAME, "w", zipfile.ZIP_DEFLATED) as archive:
         for path in notebooks:
             archive.write(path, f"bayesfilt-student-notebooks/{path.name}")
-    return pages
+    return found
 
 
 # --- the API pages ---------------------------------------------------------------------------
@@ -361,35 +425,92 @@ def stage_api(stage_dir: Path) -> None:
 # --- the build -------------------------------------------------------------------------------
 
 
-def stage(stage_dir: Path, repository: str, branch: str) -> None:
-    """Write the Sphinx source of the site into ``stage_dir`` (emptied first)."""
+GLOSSARY_CHAPTER = re.compile(r"^\s*\d{2}(\s*[,;]\s*\d{2})*\s*$")
+
+
+def link_glossary_chapters(text: str, chapters: dict[str, str]) -> str:
+    """In a markdown table whose header has a "chapter" column, link bare chapter numbers.
+
+    ``chapters`` maps ``"01"`` to the chapter's docname (``chapters/01_bayes_recursion``).
+    A cell such as ``01`` or ``02, 04`` becomes ``[01](/chapters/01_...)``; any other cell,
+    and every other table, stays as it is.
+    """
+    out, column = [], None
+    for line in text.splitlines(keepends=True):
+        stripped = line.strip()
+        if not stripped.startswith("|"):
+            column = None
+            out.append(line)
+            continue
+        cells = stripped.strip("|").split("|")
+        if column is None:
+            heads = [c.strip().lower() for c in cells]
+            column = next((k for k, h in enumerate(heads) if h.startswith("chapter")), -1)
+            out.append(line)
+            continue
+        if 0 <= column < len(cells) and GLOSSARY_CHAPTER.match(cells[column]):
+            numbers = re.findall(r"\d{2}", cells[column])
+            if all(n in chapters for n in numbers):
+                cells[column] = " " + ", ".join(f"[{n}](/{chapters[n]})" for n in numbers) + " "
+                line = "|" + "|".join(cells) + "|" + ("\n" if line.endswith("\n") else "")
+        out.append(line)
+    return "".join(out)
+
+
+def stage(stage_dir: Path, repository: str, branch: str, notebooks_dir: Path = NOTEBOOKS,
+          glossary: Path | None = GLOSSARY, api: bool = True) -> None:
+    """Write the Sphinx source of the site into ``stage_dir`` (emptied first).
+
+    ``api=False`` leaves the API reference out (a quick build, for tests of the build itself).
+    """
     if stage_dir.exists():
         shutil.rmtree(stage_dir)
     shutil.copytree(SITE_SRC, stage_dir)
     (stage_dir / "_generated").mkdir(exist_ok=True)
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    notebooks = sorted((ROOT / "notebooks").glob(CHAPTER_GLOB))
+    notebooks = sorted(notebooks_dir.glob(CHAPTER_GLOB))
     docs = {f"notebooks/{p.name}": f"chapters/{p.name}" for p in notebooks}
     docs.update({"INSTRUCTORS.md": "instructors.md", "README.md": "index.md"})
+    has_glossary = glossary is not None and glossary.is_file()
+    if has_glossary:
+        docs["GLOSSARY.md"] = "glossary.md"
     # Files in _generated/ are included from pages one level up: links relative to the stage.
-    (stage_dir / "_generated" / "notation.md").write_text(
-        rewrite_links(markdown_section(readme, r"Notation", "README.md"), docs, repository, branch),
-        encoding="utf-8")
     (stage_dir / "_generated" / "setup.md").write_text(
         rewrite_links(markdown_section(readme, r"Set-up.*", "README.md"), docs, repository, branch),
         encoding="utf-8")
     instructors = (ROOT / "INSTRUCTORS.md").read_text(encoding="utf-8")
     (stage_dir / "instructors.md").write_text(rewrite_links(instructors, docs, repository, branch),
                                           encoding="utf-8")
-    stage_chapters(stage_dir, repository, branch, docs)
-    stage_api(stage_dir)
+    chapters = stage_chapters(stage_dir, repository, branch, docs, notebooks_dir)
+    (stage_dir / "_generated" / "chapters.md").write_text(chapter_list(chapters), encoding="utf-8")
+    if has_glossary:
+        numbers = {doc.split("/")[1][:2]: doc for doc, _, _ in chapters}
+        text = rewrite_links(glossary.read_text(encoding="utf-8"), docs, repository, branch)
+        if not re.search(r"^# ", text, flags=re.M):
+            text = "# Glossary\n\n" + text   # the page's title in the sidebar and the search
+        (stage_dir / "glossary.md").write_text(link_glossary_chapters(text, numbers),
+                                               encoding="utf-8")
+    reference = [("notation", "the notation")]
+    reference += [("glossary", "the glossary (English, 한국어)")] if has_glossary else []
+    reference += [("api/index", "the bayesfilt reference")] if api else []
+    links = ", ".join(f"{{doc}}`{text} </{doc}>`" for doc, text in reference)
+    (stage_dir / "_generated" / "reference.md").write_text(
+        "```{toctree}\n:hidden:\n:maxdepth: 1\n:caption: Reference\n\n"
+        + "\n".join(doc for doc, _ in reference) + "\n```\n\n"
+        f"**Reference:** {links}; and, for teachers, {{doc}}`the instructor's guide </instructors>`.\n",
+        encoding="utf-8")
+    if api:
+        stage_api(stage_dir)
 
 
 def build(repository: str | None = None, branch: str = "main", quiet: bool = False,
           out: Path = OUT, stage_dir: Path = STAGE, doctrees: Path = DOCTREES,
-          capture: bool = False) -> Path:
+          capture: bool = False, notebooks_dir: Path = NOTEBOOKS,
+          glossary: Path | None = GLOSSARY, api: bool = True) -> Path:
     """Stage and build the site into ``out`` (default ``build/site``); returns ``out``.
 
+    ``notebooks_dir``, ``glossary`` and ``api`` are for tests of the build: the chapters' folder,
+    the glossary file (its page is built only if it exists) and whether to build the API pages.
     Raises SiteError if a step or Sphinx fails (Sphinx's warnings are printed).
     """
     repository = repository_name(repository)
@@ -397,7 +518,7 @@ def build(repository: str | None = None, branch: str = "main", quiet: bool = Fal
         print(f"note: no GitHub repository known (no --repository, GITHUB_REPOSITORY or GitHub "
               f"origin remote): the Binder and GitHub links use {PLACEHOLDER_REPOSITORY}",
               file=sys.stderr)
-    stage(stage_dir, repository, branch)
+    stage(stage_dir, repository, branch, notebooks_dir, glossary, api)
     if out.exists():
         shutil.rmtree(out)
     env = dict(os.environ, SITE_REPOSITORY=repository, SITE_BRANCH=branch,

@@ -63,7 +63,7 @@ Every callable answer runs *guarded*:
 
 How the budget stops a function, and why this way. The check arms ``SIGALRM``
 (``signal.setitimer``) for what is left of the budget, in the kernel's own process and main thread,
-where notebook code runs. At the deadline the handler raises :class:`_Stop` (a ``BaseException``,
+where notebook code runs. At the deadline the handler raises ``_Stop`` (a ``BaseException``,
 so that no ``except Exception`` swallows it) and, as a bare ``except:`` could still catch that, it
 also turns on a trace function (``sys.settrace`` and ``frame.f_trace`` on the student's frames) that
 raises again at the next line of Python the student's code runs; the timer repeats every 50 ms

@@ -28,7 +28,7 @@ from . import (CORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combine, _complex
 
 # the statements' numbers; each function's check adds two random cases, drawn with its seed
 H_SEED, CONVERT_SEED, TURN_SEED, INNOVATION_SEED, ON_THE_RY_AXIS, EXACTLY_PI = 4041, 4042, 4044, 4045, 4, 5
-# ex 1: the true start, m0, two quadrants, the r_y axis, 0.3 m away
+# ex 1: the true start, m0, two quadrants, the xi_y axis, 0.3 m away
 H_STATES = _frozen([[10.0, -5.0, -0.2, 0.2], [5.0, 5.0, 0.0, 0.0], [-6.0, 2.0, 0.3, 0.1], [-3.0, -7.0, 0.0, 1.0],
                     [0.0, 5.0, 0.2, 0.0], [0.3, -0.1, 0.0, 0.0]])
 # ex 2: [range (m), bearing (rad)], y_0 first; section 7's batch (a), seed 10, t = 1..10: the average NEES is in the
@@ -39,14 +39,14 @@ NEES_SEED, NEES_RUNS, NEES_STEPS, NEES_BAND = 10, 100, 10, (3.0, 5.5)
 SECTION_1_SEED, SECTION_1_STEPS, LIMIT_ITERATIONS, LIMIT_TOL = 0, 100, 50, 0.011
 WRAP_PRIOR = (_frozen([-10.0, 0.3, 0.0, 0.0]), _frozen(4.0 * np.eye(4)), _frozen([10.2, -3.12]))
 TIGHT_PRIOR = (_frozen([10.0, -5.0, -0.2, 0.2]), _frozen(np.diag([1.0, 1.0, 0.01, 0.01])), _frozen([11.5, -0.5]))
-# ex 4: [r_x, r_y, v_x, v_y, omega]: a slow turn, a quarter turn, a right turn, omega = 0, at rest
+# ex 4: [xi_x, xi_y, xi_x_dot, xi_y_dot, omega]: a slow turn, a quarter turn, a right turn, omega = 0, at rest
 TURN_STATES = _frozen([[10.0, -5.0, -0.2, 0.2, 0.05], [0.0, 0.0, 1.0, 0.0, np.pi / 2], [-2.0, 1.0, 0.5, -1.5, -0.4],
                        [1.0, 2.0, 0.3, 0.4, 0.0], [3.0, 4.0, 0.0, 0.0, 0.3]])
 # ex 5: (y, y_pred): section 10's first (range change > pi), across the cut both ways, above pi, equal, exactly pi apart
 INNOVATION_CASES = tuple((_frozen(y), _frozen(p)) for y, p in [
     ([11.03, -0.405], [7.07, 0.785]), ([9.8, 3.12], [10.0, -3.13]), ([10.0, -3.1], [10.2, 3.05]),
     ([10.0, 3.21], [10.1, -3.1]), ([4.0, 1.0], [8.5, 1.0]), ([5.0, np.pi / 2], [5.0, -np.pi / 2])])
-_STATE, _TURN = ("r_x", "r_y", "v_x", "v_y"), ("r_x", "r_y", "v_x", "v_y", "omega")
+_STATE, _TURN = ("xi_x", "xi_y", "xi_x_dot", "xi_y_dot"), ("xi_x", "xi_y", "xi_x_dot", "xi_y_dot", "omega")
 _model = functools.cache(models.range_bearing)
 
 
@@ -98,7 +98,7 @@ _NUMERICAL = [({"numerical_jacobian"}, "bf.ekf.numerical_jacobian: a finite-diff
                                        "by hand; write each entry of the closed form.")]
 
 
-# Exercise 1: the range-bearing Jacobian H, in Kay's state order [r_x, r_y, v_x, v_y] --------------------------------
+# Exercise 1: the range-bearing Jacobian H, in Kay's state order [xi_x, xi_y, xi_x_dot, xi_y_dot] --------------------------------
 _jacobian_states = functools.partial(_cases, [(x,) for x in H_STATES], H_SEED, lambda rng: (
     np.round(rng.uniform(-20.0, 20.0, size=4), 3),), lambda x: np.hypot(x[0], x[1]) > 1.0)
 
@@ -106,17 +106,17 @@ _jacobian_states = functools.partial(_cases, [(x,) for x in H_STATES], H_SEED, l
 _H_MISTAKES = [
     ({"then": np.transpose}, "H is transposed: a row per measurement component, a column per state one, shape (2, 4)."),
     ({"then": np.flipud}, "the rows are swapped: h = [range, bearing], so row 0 holds the derivatives of the range."),
-    ({"read": (0, 2), "cols": (0, 2)}, "you read the state in chapter 03's order [r_x, v_x, r_y, v_y] (r_y = x[2]) "
-     "and put its columns there too; in Kay's order [r_x, r_y, v_x, v_y] r_y = x[1], in column 1."),
-    ({"read": (0, 2)}, "you read r_y from x[2], its place in chapter 03's order; in Kay's order it is x[1]."),
-    ({"cols": (0, 2)}, "the columns are in chapter 03's state order [r_x, v_x, r_y, v_y]; in Kay's order [r_x, r_y, "
-     "v_x, v_y] the derivatives by r_x and r_y are columns 0 and 1 (model.index_of(\"r_x\", \"r_y\"))."),
-    ({"sign": -1.0}, "the bearing row has the wrong sign: the bearing grows anticlockwise, so d beta / d r_y = r_x / "
-     "rho^2 (differentiate atan2(r_y, r_x), not atan2(r_x, r_y))."),
-    ({"then": np.negative}, "both rows have the wrong sign: d rho / d r_x = r_x / rho has the sign of r_x."),
-    ({"bearing": "rho"}, "the bearing row is divided by rho; it is divided by rho^2 (d beta / d r_x = -r_y / rho^2)."),
-    ({"rng": "one"}, "the range row is not divided by rho: d rho / d r_x = r_x / rho (a unit vector), not r_x."),
-    ({"rng": "square"}, "the range row is the derivative of rho^2, not of rho: d rho / d r_x = r_x / rho."),
+    ({"read": (0, 2), "cols": (0, 2)}, "you read the state in chapter 03's order [xi_x, xi_x_dot, xi_y, xi_y_dot] (xi_y = x[2]) "
+     "and put its columns there too; in Kay's order [xi_x, xi_y, xi_x_dot, xi_y_dot] xi_y = x[1], in column 1."),
+    ({"read": (0, 2)}, "you read xi_y from x[2], its place in chapter 03's order; in Kay's order it is x[1]."),
+    ({"cols": (0, 2)}, "the columns are in chapter 03's state order [xi_x, xi_x_dot, xi_y, xi_y_dot]; in Kay's order [xi_x, xi_y, "
+     "xi_x_dot, xi_y_dot] the derivatives by xi_x and xi_y are columns 0 and 1 (model.index_of(\"xi_x\", \"xi_y\"))."),
+    ({"sign": -1.0}, "the bearing row has the wrong sign: the bearing grows anticlockwise, so d beta / d xi_y = xi_x / "
+     "rho^2 (differentiate atan2(xi_y, xi_x), not atan2(xi_x, xi_y))."),
+    ({"then": np.negative}, "both rows have the wrong sign: d rho / d xi_x = xi_x / rho has the sign of xi_x."),
+    ({"bearing": "rho"}, "the bearing row is divided by rho; it is divided by rho^2 (d beta / d xi_x = -xi_y / rho^2)."),
+    ({"rng": "one"}, "the range row is not divided by rho: d rho / d xi_x = xi_x / rho (a unit vector), not xi_x."),
+    ({"rng": "square"}, "the range row is the derivative of rho^2, not of rho: d rho / d xi_x = xi_x / rho."),
     ({"then": lambda H: H[:, :2]}, "H must have shape (2, 4), not (2, 2): the velocities do not enter h, but H has "
      "a column for each of the 4 state components.")]
 
@@ -129,11 +129,11 @@ def exercise_1(range_bearing_jacobian) -> Feedback:
         H[0, list(cols)] = np.array([rx, ry]) * {"rho": 1 / np.sqrt(rho2), "one": 1.0, "square": 2.0}[rng]
         H[1, list(cols)] = sign * np.array([-ry, rx]) / {"rho2": rho2, "rho": np.sqrt(rho2)}[bearing]
         return then(H)
-    on_axis = (lambda a, e: e.shape == (2, 4) and e[0, 0] == 0 and not np.all(np.isfinite(a)), "on the r_y axis "
-               "(r_x = 0) your H contains NaN or inf: the derivation through arctan(r_y / r_x) divides by r_x, but H "
+    on_axis = (lambda a, e: e.shape == (2, 4) and e[0, 0] == 0 and not np.all(np.isfinite(a)), "on the xi_y axis "
+               "(xi_x = 0) your H contains NaN or inf: the derivation through arctan(xi_y / xi_x) divides by xi_x, but H "
                "is finite wherever rho > 0; simplify until only rho^2 is in a denominator.")
     hints = [((ZeroDivisionError, FloatingPointError), lambda exc, args: float(np.ravel(args[0])[0]) == 0.0,
-              "r_x = 0 here (the r_y axis): simplify so that only rho^2 = r_x^2 + r_y^2 is in a denominator."),
+              "xi_x = 0 here (the xi_y axis): simplify so that only rho^2 = xi_x^2 + xi_y^2 is in a denominator."),
              ((IndexError, ValueError), lambda *_: True, "x is a NumPy array of shape (4,); return shape (2, 4).")]
     return _function(range_bearing_jacobian, "range_bearing_jacobian", _jacobian_states(), _model().H, _h_variant,
                      _H_MISTAKES, hints, entry=lambda i: f"d {('rho', 'beta')[i[0]]} / d {_STATE[i[1]]}",
@@ -161,10 +161,10 @@ _COV_MISTAKES = [
     ({"then": lambda J, R: J.T @ R @ J}, "this is J^T R J; the covariance of J v (v the noise) is J R J^T."),
     ({"R": np.sqrt(_model().R)}, "R holds variances; you used their square roots, the standard deviations."),
     ({"then": lambda J, R: J @ R}, "J R is not a covariance (it is not symmetric): J R J^T."),
-    ({"then": lambda J, R: R}, "this is R itself, of (range, bearing); carry it to (r_x, r_y) with J: J R J^T."),
+    ({"then": lambda J, R: R}, "this is R itself, of (range, bearing); carry it to (xi_x, xi_y) with J: J R J^T."),
     ({"then": lambda J, R: np.diag(np.diag(J @ R @ J.T))}, "you kept only the diagonal: away from the axes the errors "
-     "in r_x and r_y are correlated."),
-    ({"from_ry_axis": True}, "your conversion measures the bearing from the r_y axis; r_x = rho cos beta."),
+     "in xi_x and xi_y are correlated."),
+    ({"from_ry_axis": True}, "your conversion measures the bearing from the xi_y axis; xi_x = rho cos beta."),
     ({"then": lambda J, R: np.linalg.inv(J @ R @ J.T)}, "this is the inverse of J R J^T, a precision.")]
 
 
@@ -172,7 +172,7 @@ def _nees_experiment(cov_fn, rng, n_runs: int = 100, T: int = 11) -> np.ndarray:
     """The answer cell's experiment, NEES (n_runs, T-1): section 7's batch (a) with the prior of x_0 from y_0 (the
     converted y_0, zero velocity; cov_fn(y_0), unit velocity variances), predicted to t = 1, updated with y_1..."""
     model, nees = _model(), np.empty((n_runs, T - 1))
-    pos = model.index_of("r_x", "r_y")
+    pos = model.index_of("xi_x", "xi_y")
     for i in range(n_runs):
         xs, ys = models.simulate(model, T, rng, x0=models.RANGE_BEARING_TRUE_START)
         m, P = np.zeros(4), np.eye(4)
@@ -271,7 +271,7 @@ def _limit_positions_of(m0: tuple, P0: tuple, y0: tuple) -> dict:
     """Kay's first update, its limit, section 8's grid posterior mean, the positions of wrong answers (messages)."""
     model, g, n = _model(), np.arange(-25.0, 35.0 + 0.1, 0.2), LIMIT_ITERATIONS
     kay = (_frozen(m0), _frozen(np.reshape(P0, (4, 4))), _frozen(y0))
-    pos, grid = model.index_of("r_x", "r_y"), np.zeros((g.size**2, 4))
+    pos, grid = model.index_of("xi_x", "xi_y"), np.zeros((g.size**2, 4))
     grid[:, pos] = np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)
     log_post = model.measurement_logpdf(kay[2], grid) + gaussian.logpdf(grid[:, pos], kay[0][pos], kay[1][pos][:, pos])
     post = np.exp(log_post - log_post.max())
@@ -288,7 +288,7 @@ def _limit_positions_of(m0: tuple, P0: tuple, y0: tuple) -> dict:
             (at(n, "no_term"), ": this is where the iteration without the term - H_i (m0 - x^(i)) goes; keep it."),
             (at(n, "repeated"), ": this is where repeated EKF updates with the same y_0 go; update the prior each "
                                 "time."),
-            (at(n)[::-1], " has r_x and r_y swapped: give [r_x, r_y]."),
+            (at(n)[::-1], " has xi_x and xi_y swapped: give [xi_x, xi_y]."),
             (..., " is not the limit for y0_3 (y_0 = sim.ys[0] of section 1) to 0.01 m: iterate your "
                   "iterated_ekf_update from m0 until x^(i) no longer moves, and give its position.")]}
 
@@ -298,8 +298,8 @@ def _answer_3(answer, what="answer_3") -> Feedback:
     ref = _limit_positions()
     close = lambda p: np.shape(a) in ((2,), (4,)) and np.allclose(a[:2], p, rtol=0.0, atol=LIMIT_TOL)  # noqa: E731
     if bad is not None or a.shape != (2,):
-        return bad or _wrong(f"{what} is a whole state; give the position [r_x, r_y] only, shape (2,) (x[pos])." if
-                             close(ref["limit"]) else f"{what} must be the position [r_x, r_y], a NumPy array of shape "
+        return bad or _wrong(f"{what} is a whole state; give the position [xi_x, xi_y] only, shape (2,) (x[pos])." if
+                             close(ref["limit"]) else f"{what} must be the position [xi_x, xi_y], a NumPy array of shape "
                              f"(2,)" + (", not a whole state." if a.shape == (4,) else f"; got shape {a.shape}."))
     grid = close(ref["grid"]) or np.linalg.norm(a - ref["grid"]) < 0.5 * np.linalg.norm(ref["limit"] - ref["grid"])
     return Feedback(CORRECT, f"{what} is the limit of the iterated EKF, to 0.01 m.") if close(ref["limit"]) else _wrong(
@@ -348,16 +348,16 @@ _turn_cases = functools.partial(_cases, [(x,) for x in TURN_STATES], TURN_SEED, 
 _TURN_MISTAKES = [
     ({"then": np.transpose}, "F is transposed: row i holds the derivatives of the i-th component of f(x)."),
     ({"omega_column": 0.0}, "the omega column is zero: the turned velocity depends on omega, a state component."),
-    ({"omega_column": -1.0}, "the omega column has the wrong sign: d/d omega of cos(omega) v_x - sin(omega) v_y is "
-     "-sin(omega) v_x - cos(omega) v_y."),
+    ({"omega_column": -1.0}, "the omega column has the wrong sign: d/d omega of cos(omega) xi_x_dot - sin(omega) xi_y_dot is "
+     "-sin(omega) xi_x_dot - cos(omega) xi_y_dot."),
     ({"cos_sign": -1.0}, "the derivative of cos has the wrong sign in the omega column: d cos(omega) / d omega = "
      "-sin(omega)."),
-    ({"transposed_turn": True}, "the velocity block is the transposed rotation, a clockwise turn: d v_x(t+1) / d v_y "
+    ({"transposed_turn": True}, "the velocity block is the transposed rotation, a clockwise turn: d xi_x_dot(t+1) / d xi_y_dot "
      "= -sin(omega)."),
-    ({"coupling": 0.0}, "the position rows miss the velocities: r_x(t+1) = r_x + v_x, so d r_x(t+1) / d v_x = 1."),
-    ({"turned_position": True}, "you move the position by the turned velocity; it moves by v_t: r_x(t+1) = r_x + v_x."),
+    ({"coupling": 0.0}, "the position rows miss the velocities: xi_x(t+1) = xi_x + xi_x_dot, so d xi_x(t+1) / d xi_x_dot = 1."),
+    ({"turned_position": True}, "you move the position by the turned velocity; it moves by v_t: xi_x(t+1) = xi_x + xi_x_dot."),
     ({"last": 0.0}, "the last row is zero: omega(t+1) = omega(t), so d omega(t+1) / d omega = 1."),
-    ({"then": lambda F: F[:4, :4]}, "F must be 5 x 5: the state has five components [r_x, r_y, v_x, v_y, omega].")]
+    ({"then": lambda F: F[:4, :4]}, "F must be 5 x 5: the state has five components [xi_x, xi_y, xi_x_dot, xi_y_dot, omega].")]
 
 
 def exercise_4(turn_jacobian) -> Feedback:

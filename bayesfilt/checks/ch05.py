@@ -1,11 +1,13 @@
 """Checks of chapter 05's exercises (references by bf.particle, bf.models).
 One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
-    exercise_1(my_log_normalize): normalised log-weights and their log sum, without under- or overflow;
+    exercise_1(my_log_normalize): normalised log-weights and their log sum, without under- or overflow
+        [log_w_under_1, log_w_over_1];
     exercise_2(answer_2): three effective sample sizes [weights_a_2, weights_b_2, log_weights_c_2];
     exercise_3(log_increment): the log increment log p(y_t | x_(t-1)) of the optimal proposal, on seven inputs [lg];
     exercise_4(answer_4): the R of the smallest mean ESS, bootstrap at t = 5 and optimal proposal at t = 39, and the
-        function mean_ess(R) the statement asks for, called for each R [R_values, mean_ess];
+        function mean_ess(R) the statement asks for, called for each R [R_values, mean_ess, N_4, T_4, records_4,
+        t_boot_4, t_opt_4, seeds_4];
     exercise_5(answer_5): the models whose optimal proposal is not the transition.
 """
 
@@ -15,6 +17,7 @@ import functools
 import math
 import numbers
 import re
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,6 +26,7 @@ from . import (CORRECT, INCORRECT, NOT_ATTEMPTED, Feedback, _as_numbers, _combin
                _tolerance, _wrong, compare_function, compare_number, given, register as _register)
 
 LOG_W = (-1000.0, -1001.0, -1002.0, -np.inf)         # exercise 1's statement; exercise 2 (c)
+LOG_W_OVER = (800.0, 799.5)                          # exercise 1's statement: e^l overflows
 ESS_GIVEN = ((0.4, 0.3, 0.2, 0.1), (1.0, 1.0, 2.0))   # exercise 2 (a), (b)
 A, C, Q, R, S = 0.9, 1.0, 1.0, 0.1, 1.1              # lg of section 4 (exercises 3-5); S = C Q C^T + R
 R_VALUES, N_4, T_4, RUNS_4, T_BOOT, T_OPT, SEEDS_4 = (0.01, 0.1, 1.0), 500, 40, 10, 5, 39, (14, 15)  # section 7
@@ -30,7 +34,7 @@ TOL, ATOL_HAND = 1e-8, 2e-3     # computed answers; an ESS by hand, to 3 decimal
 SAMPLER = "section 15"          # "The optimal proposal: its sampler, and the damped particle"
 LSE, NORM, S_ = "m + log sum_j e^(l_j - m)", "log W^(i) = l^(i) - log_sum", "S = C Q C^T + R"
 SHIFT = f"Factor out the largest log-weight m first: log sum_j e^(l_j) = {LSE}."
-ESS, ASK = "1 / sum_i (W^(i))^2", "Given x_(t-1), does y_t depend on w_(t-1)?"
+ESS, ASK = "1 / sum_i (W^(i))^2", "Given x_(t-1), does y_t depend on the new process noise?"
 # exercise 5: for each model, whether its optimal proposal differs from the transition ("<letter> yes"), as digests
 _IN_5 = {"a": "sha256:ch05-ex5:7a3ba04bb4bdd1eed29b", "b": "sha256:ch05-ex5:2f85527d6f509b1960e6",
          "c": "sha256:ch05-ex5:097429d1b0e9be7cb7ae"}
@@ -119,8 +123,9 @@ def exercise_1(my_log_normalize) -> Feedback:
                    f"(the first at index {int(np.argmax(bad))}).")])
     far = np.random.default_rng(505).normal(-5000.0, 20.0, size=50)   # with two zero weights;
     far[[7, 30]] = -np.inf                                             # last, a spread of 800
-    cases = [(np.array(v, dtype=float),) for v in (LOG_W, [0.0] * 3, [800.0, 799.5, 795.0], [3.7], far,
-                                                   [-2, 0.5, 1e-3, -np.inf, 0.25], [0, -800, -5])]
+    under, over = given("log_w_under_1", LOG_W), given("log_w_over_1", LOG_W_OVER)   # the statement's arrays
+    cases = [(np.array(v, dtype=float),) for v in (under, [0.0] * 3, [800.0, 799.5, 795.0], [3.7], far,
+                                                   [-2, 0.5, 1e-3, -np.inf, 0.25], [0, -800, -5], over)]
     fb = compare_function(my_log_normalize, lambda lw: (lw, *particle.log_normalize(lw)), cases,
                           what="my_log_normalize", compare=_pair_1, forbidden=[
                               ({name}, f"{name}, which the statement rules out: numpy only, log-sum-exp by hand "
@@ -175,7 +180,7 @@ def exercise_2(answer) -> Feedback:
                      (True, f"is too {'large' if a[k] > ref[k] else 'small'} (give at least 3 decimals).")])
 
 
-# Exercise 3: eq. (13) with the library's optimal proposal, on 7 (x_prev, y) ---------------------------------
+# Exercise 3: eq. (8) with the library's optimal proposal, on 7 (x_prev, y) ---------------------------------
 def _lg(r: float = R):
     return models.LinearGaussian(A=[[A]], C=[[C]], Q=[[Q]], R=[[r]], m0=[0.0], P0=[[1.0]])
 
@@ -189,8 +194,8 @@ def _mistakes_3(A, C, Q, R) -> list:
     """The named mistakes of log_increment for the 1-D model (A, C, Q, R) (G = 1), S = C Q C + R."""
     S = C * Q * C + R
     return [
-        (_g(R, C * A), f"uses the variance R alone, the bootstrap's likelihood; y_t = C (A x_(t-1) + w_(t-1)) + "
-                       f"v_t: {S_}."),
+        (_g(R, C * A), f"uses the variance R alone, the bootstrap's likelihood; y_t = C x_t + v_t with "
+                       f"x_t ~ N(A x_(t-1), Q): {S_}."),
         (_g(C * Q * C, C * A), f"uses C Q C^T alone: R is missing from {S_}."),
         (_g(S, C), "centres y on C x_prev; the state moves first: C A x_prev."),
         (_g(R, 1.0), f"is log N(y; x_prev, R); the mean is C A x_prev, {S_}."),
@@ -210,7 +215,7 @@ MISTAKES_3 = _mistakes_3(A, C, Q, R)
 
 
 def exercise_3(log_increment) -> Feedback:
-    """log_increment(x_prev, y) against eq. (13) with bf.particle.optimal_proposal of lg, on seven inputs."""
+    """log_increment(x_prev, y) against eq. (8) with bf.particle.optimal_proposal of lg, on seven inputs."""
     lg = given("lg", None)
     lg = _lg() if lg is None else lg
     num = lambda M: float(np.ravel(M)[0])  # noqa: E731
@@ -228,71 +233,96 @@ def exercise_3(log_increment) -> Feedback:
         fb = compare_number(out, expected[0], what=what, rtol=TOL, atol=TOL)
         v = out.item() if isinstance(out, np.ndarray) and out.size == 1 else out
         hint = isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
-        return _wrong(f"{fb.message[:-1]}: work out the mean and variance of y_t = C (A x_(t-1) + w_(t-1)) + v_t "
-                      f"given x_(t-1).") if fb.status == INCORRECT and hint else fb
+        return _wrong(f"{fb.message[:-1]}: work out the mean and variance of y_t = C x_t + v_t, with x_t ~ "
+                      f"N(A x_(t-1), Q), given x_(t-1).") if fb.status == INCORRECT and hint else fb
     drawn = np.random.default_rng(303).normal(0.0, 2.0, size=(3, 2)).tolist()
     cases = [(1.0, 2.0), (0.0, 0.0), (-2.5, 1.0), (4.0, -3.0)] + [tuple(c) for c in drawn]
     fb = compare_function(log_increment, _increment, cases, what="log_increment", compare=_number_3,
                           mistakes=[(lambda x, y, f=f: (f(x, y), x, y), m) for f, m in mistakes])
-    return Feedback(CORRECT, f"{fb.message} It is eq. (13) for bf.particle.optimal_proposal, whatever the draw "
+    return Feedback(CORRECT, f"{fb.message} It is eq. (8) for bf.particle.optimal_proposal, whatever the draw "
                              f"x_t.") if fb.correct else fb
 
 
 # Exercise 4: section 7's experiment for each R, then a table of verdicts ------------------------------------
+class _Setup4(NamedTuple):
+    """Section 7's experiment as the statement gives it (the answer cell's variables)."""
+    n: int                  # N_4, particles
+    T: int                  # T_4, steps per record
+    runs: int               # records_4, records per R
+    t_boot: int             # t_boot_4, the bootstrap's step
+    t_opt: int              # t_opt_4, the optimal proposal's step
+    seeds: tuple            # seeds_4, (records, filters)
+
+
+SETUP_4 = _Setup4(N_4, T_4, RUNS_4, T_BOOT, T_OPT, SEEDS_4)
+
+
+def _setup_4() -> _Setup4:
+    """The statement's numbers, from the notebook where it has them."""
+    return _Setup4(int(given("N_4", N_4)), int(given("T_4", T_4)), int(given("records_4", RUNS_4)),
+                   int(given("t_boot_4", T_BOOT)), int(given("t_opt_4", T_OPT)),
+                   tuple(int(v) for v in given("seeds_4", SEEDS_4)))
+
+
 @functools.lru_cache(maxsize=8)
-def _ess_runs(r: float) -> tuple[np.ndarray, np.ndarray]:
+def _ess_runs(r: float, setup: _Setup4 = SETUP_4) -> tuple[np.ndarray, np.ndarray]:
     """The ESS (records, T) of the bootstrap and of the optimal proposal in section 7's experiment with R = r,
     the statement's seeds: one generator for the records, one per filter, each afresh for each R."""
-    lg, records = _lg(r), np.random.default_rng(SEEDS_4[0])
-    runs = [(p, np.random.default_rng(SEEDS_4[1]), []) for p in (None, particle.optimal_proposal(lg))]
-    for _ in range(RUNS_4):
-        ys = models.simulate(lg, T_4, records).ys
+    lg, records = _lg(r), np.random.default_rng(setup.seeds[0])
+    runs = [(p, np.random.default_rng(setup.seeds[1]), []) for p in (None, particle.optimal_proposal(lg))]
+    for _ in range(setup.runs):
+        ys = models.simulate(lg, setup.T, records).ys
         for p, rng, ess in runs:
-            ess.append(particle.particle_filter(lg, ys, N_4, rng, proposal=p, ess_threshold=0).ess)
+            ess.append(particle.particle_filter(lg, ys, setup.n, rng, proposal=p, ess_threshold=0).ess)
     return np.array(runs[0][2]), np.array(runs[1][2])
 
 
-def _experiment(r_values=R_VALUES) -> tuple[float, float]:
-    """(R of the smallest mean bootstrap ESS at t = 5, R of the smallest optimal ESS at t = 39)."""
-    means = [[boot[:, T_BOOT].mean(), opt[:, T_OPT].mean()] for boot, opt in map(_ess_runs, r_values)]
+def _experiment(r_values=R_VALUES, setup: _Setup4 = SETUP_4) -> tuple[float, float]:
+    """(R of the smallest mean bootstrap ESS at t_boot, R of the smallest optimal ESS at t_opt)."""
+    means = [[boot[:, setup.t_boot].mean(), opt[:, setup.t_opt].mean()]
+             for boot, opt in (_ess_runs(r, setup) for r in r_values)]
     return tuple(r_values[int(i)] for i in np.argmin(means, axis=0))
 
 
-def _mean_ess(fun, r_values) -> Feedback:
+def _mean_ess(fun, r_values, setup: _Setup4 = SETUP_4) -> Feedback:
     """mean_ess(R), the statement's helper, against section 7's experiment for each R."""
+    tb, to, runs = setup.t_boot, setup.t_opt, setup.runs
+
     def judge(out, where, args) -> Feedback:
         (r,), what = args, f"mean_ess({args[0]:g})"
-        boot, opt = _ess_runs(r)
-        ref = np.array([boot[:, T_BOOT].mean(), opt[:, T_OPT].mean()])
+        boot, opt = _ess_runs(r, setup)
+        ref = np.array([boot[:, tb].mean(), opt[:, to].mean()])
         a, bad = _as_numbers(out, what)
         if bad is not None or a.shape != (2,):
-            return bad or _wrong(f"{what} must return a pair of numbers (the bootstrap's mean ESS at t = {T_BOOT}, "
-                                 f"the optimal proposal's at t = {T_OPT}); got shape {a.shape}.")
+            return bad or _wrong(f"{what} must return a pair of numbers (the bootstrap's mean ESS at t = {tb}, "
+                                 f"the optimal proposal's at t = {to}); got shape {a.shape}.")
         if np.allclose(a, ref, rtol=1e-6):
             return Feedback(CORRECT, "")
-        variants = [
-            (ref[::-1], "returns the pair in the wrong order: first the bootstrap's ESS, then the optimal's."),
-            ([boot[:, T_BOOT - 1].mean(), ref[1]], f"reads the bootstrap's ESS at t = {T_BOOT - 1}: index {T_BOOT}."),
-            ([boot[:, T_BOOT + 1].mean(), ref[1]], f"reads the bootstrap's ESS at t = {T_BOOT + 1}: index {T_BOOT}."),
-            ([ref[0], opt[:, T_OPT - 1].mean()], f"reads the optimal proposal's ESS at t = {T_OPT - 1}: index "
-                                                 f"{T_OPT} (or -1)."),
-            ([boot[-1, T_BOOT], opt[-1, T_OPT]], "returns the ESS of the last record only; average over the "
-                                                 f"{RUNS_4} records."),
-            ([np.median(boot[:, T_BOOT]), np.median(opt[:, T_OPT])], "returns medians; average over the records "
-                                                                     "(np.mean)."),
-            ([boot[:, T_BOOT].sum(), opt[:, T_OPT].sum()], f"returns sums over the records; average them (divide "
-                                                           f"by {RUNS_4}).")]
+        variants = [(ref[::-1], "returns the pair in the wrong order: first the bootstrap's ESS, then the "
+                                "optimal's.")]
+        variants += [([boot[:, k].mean(), ref[1]], f"reads the bootstrap's ESS at t = {k}: index {tb}.")
+                     for k in (tb - 1, tb + 1) if 0 <= k < setup.T]
+        variants += [([ref[0], opt[:, k].mean()], f"reads the optimal proposal's ESS at t = {k}: index {to}"
+                                                  + (" (or -1)." if to == setup.T - 1 else "."))
+                     for k in (to - 1,) if k >= 0]
+        variants += [
+            ([boot[-1, tb], opt[-1, to]], f"returns the ESS of the last record only; average over the {runs} "
+                                          f"records."),
+            ([np.median(boot[:, tb]), np.median(opt[:, to])], "returns medians; average over the records "
+                                                              "(np.mean)."),
+            ([boot[:, tb].sum(), opt[:, to].sum()], f"returns sums over the records; average them (divide by "
+                                                    f"{runs}).")]
         for value, message in variants:
             if np.allclose(a, value, rtol=1e-6):
                 return _wrong(f"{what} {message}")
         return _wrong(f"{what} does not reproduce section 7's experiment with the statement's seeds: one "
-                      f"generator np.random.default_rng(14) for the {RUNS_4} records of each R, and for each "
-                      f"filter its own np.random.default_rng(15), made afresh for each R (N = {N_4}, "
-                      f"ess_threshold=0).")
+                      f"generator np.random.default_rng({setup.seeds[0]}) for the {runs} records of each R, and "
+                      f"for each filter its own np.random.default_rng({setup.seeds[1]}), made afresh for each R "
+                      f"(N = {setup.n}, ess_threshold=0).")
     return _each_case(fun, "mean_ess", [(r,) for r in r_values], ["" for _ in r_values], judge)
 
 
-def _answer_4(answer, r_values) -> Feedback:
+def _answer_4(answer, r_values, setup: _Setup4 = SETUP_4) -> Feedback:
     def _which_r(v) -> float | None:
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, (str, numbers.Real, np.ndarray)):
             return None
@@ -301,50 +331,53 @@ def _answer_4(answer, r_values) -> Feedback:
         except (TypeError, ValueError):
             return None
         return next((r for r in r_values if math.isclose(v, r, rel_tol=1e-9)), None)
-    w, listed = "answer_4", ", ".join(f"{r:g}" for r in r_values)
+    w, listed, tb, to = "answer_4", ", ".join(f"{r:g}" for r in r_values), setup.t_boot, setup.t_opt
     if answer is None or answer is Ellipsis:
         return _not_attempted(w)
     items = list(np.asarray(answer, dtype=object).ravel()) if isinstance(answer, np.ndarray) else answer
     if not isinstance(items, (list, tuple)) or len(items) != 2:
         got = f"{len(items)} value(s)" if isinstance(items, (list, tuple)) else type(answer).__name__
-        return _wrong(f"{w} must be a pair of values of R, (R of the bootstrap's smallest mean ESS at t = 5, R of "
-                      f"the optimal proposal's smallest mean ESS at t = 39), each one of {listed}; got {got}.")
+        return _wrong(f"{w} must be a pair of values of R, (R of the bootstrap's smallest mean ESS at t = {tb}, R "
+                      f"of the optimal proposal's smallest mean ESS at t = {to}), each one of {listed}; got {got}.")
     if None in (chosen := tuple(_which_r(v) for v in items)):
         k = chosen.index(None)
         ess = isinstance(items[k], numbers.Real) and not isinstance(items[k], bool) and float(items[k]) >= 1.0
         return _wrong(f"{w}[{k}] is {items[k]!r}, not one of the values of R ({listed})"
                       + ("; give the value of R, not the ESS you measured." if ess else "."))
-    boot, opt = expected = _experiment(r_values)
+    boot, opt = expected = _experiment(r_values, setup)
     if chosen == expected:
         return Feedback(CORRECT, f"{w} is right: a precise sensor ruins the bootstrap's blind draws; the "
                                  f"optimal proposal removes that spread, and what is left comes from the "
                                  f"particles' different pasts.")
-    average = "Average over the 10 records (one can mislead), with ess_threshold=0"
+    average = f"Average over the {setup.runs} records (one can mislead), with ess_threshold=0"
+    last = " or -1" if to == setup.T - 1 else ""
     return _first(w, [
-        (chosen == (opt, boot) and boot != opt, " has the two values swapped: first the bootstrap (t = 5), "
-                                                "then the optimal proposal (t = 39)."),
-        (chosen[0] != boot, f"[0] is not the R of the bootstrap's smallest mean ESS at t = 5 (index 5). For each R, "
-         f"how many of the blind draws land where N(y_t; x_t, R) is large? {average}."),
-        (chosen[1] == boot, f"[1] ranks the R like the bootstrap ({w}[0] is right). At t = 39 (index 39 or -1, not "
-         f"5) the increment p(y_t | x_(t-1)^(i)) does not depend on the new draw, only on the particle's past."),
-        (True, f"[1] is not the R of the optimal proposal's smallest mean ESS at t = 39 (index 39 or -1; {w}[0] "
+        (chosen == (opt, boot) and boot != opt, f" has the two values swapped: first the bootstrap (t = {tb}), "
+                                                f"then the optimal proposal (t = {to})."),
+        (chosen[0] != boot, f"[0] is not the R of the bootstrap's smallest mean ESS at t = {tb} (index {tb}). For "
+         f"each R, how many of the blind draws land where N(y_t; x_t, R) is large? {average}."),
+        (chosen[1] == boot, f"[1] ranks the R like the bootstrap ({w}[0] is right). At t = {to} (index {to}{last}, "
+         f"not {tb}) the increment p(y_t | x_(t-1)^(i)) does not depend on the new draw, only on the particle's "
+         f"past."),
+        (True, f"[1] is not the R of the optimal proposal's smallest mean ESS at t = {to} (index {to}{last}; {w}[0] "
                f"is right). {average} and its own optimal_proposal for each R.")])
 
 
 def exercise_4(answer) -> Feedback:
     """answer_4 = (R_boot, R_opt) among R_values; the statement's mean_ess(R) is called for each R."""
     r_values = tuple(float(r) for r in given("R_values", R_VALUES))
-    value, fun = _answer_4(answer, r_values), given("mean_ess", None)
+    setup = _setup_4()
+    value, fun = _answer_4(answer, r_values, setup), given("mean_ess", None)
     if fun is None:                       # no notebook (a unit test): the pair alone
         return value
-    helper = _mean_ess(fun, r_values)
+    helper = _mean_ess(fun, r_values, setup)
     if helper.status == NOT_ATTEMPTED and value.status != NOT_ATTEMPTED:
         return _wrong("mean_ess is not written yet: the statement asks for the experiment as a function of R, "
                       "and the check calls it for each R.")
     return value if helper.correct else _combine([("answer_4", value), ("mean_ess", helper)])
 
 
-# Exercise 5: the letters, against the models whose y_t sees w_(t-1) given x_(t-1) --------------------------
+# Exercise 5: the letters, against the models whose y_t sees the new process noise given x_(t-1) ------------
 def exercise_5(answer) -> Feedback:
     def _letters(answer) -> set[str] | None:
         """The set of letters an answer names, or None when it is not a list of a, b, c."""
@@ -365,15 +398,15 @@ def exercise_5(answer) -> Feedback:
         return _wrong(f"{w} must be a list of the letters of the models, e.g. [\"a\"] or [] for none; got {shown}.")
     if chosen == expected:
         return Feedback(CORRECT, f"{w} is right: the optimal proposal differs from the transition exactly "
-                                 f"when y_t depends on the new noise w_(t-1) given x_(t-1).")
-    hints = {"a": "the damped particle (a): which components of x_t does its noise G w_(t-1) move, and which "
-                  f"does C measure? {ASK} ({SAMPLER})",
+                                 f"when y_t depends on the new process noise given x_(t-1).")
+    hints = {"a": "the damped particle (a): which components of x_t does its new process noise move, and "
+                  f"which does C measure? {ASK} ({SAMPLER})",
              "b": f"dp_pushed (b): with G = I, which components does its noise move, and which does C measure? {ASK}",
-             "c": f"lg (c): write y_t = C (A x_(t-1) + w_(t-1)) + v_t. {ASK}"}
+             "c": f"lg (c): write y_t = C x_t + v_t with x_t ~ N(A x_(t-1), Q). {ASK}"}
     extra, missing = sorted(chosen - expected) or "a", sorted(expected - chosen) or "a"
     return _first(w, [
-        (not chosen, " is empty: for at least one model y_t depends on the new noise w_(t-1) given x_(t-1). "
-                     "Write y_t in terms of x_(t-1), w_(t-1) and v_t."),
+        (not chosen, " is empty: for at least one model y_t depends on the new process noise given x_(t-1). "
+                     "Write y_t in terms of x_(t-1), the new process noise and v_t."),
         (chosen - expected, f" includes {hints[extra[0]]} If not, the optimal proposal is the transition."),
         (True, f" leaves out {hints[missing[0]]} If so, the optimal proposal differs from the transition.")])
 

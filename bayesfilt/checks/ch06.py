@@ -1,12 +1,13 @@
 r"""Checks of chapter 06's exercises (resampling, the particle filter; references by the library).
 One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
-    exercise_1(my_systematic): systematic resampling's ancestors a_j of the comb p_j = (j + u)/N;
-    exercise_2(answer_2): E[N^(2)] and Var(N^(2)) under multinomial, systematic and residual resampling [W_2, M_2];
+    exercise_1(my_systematic): systematic resampling's ancestors a_j of the comb u_j = (j + u)/N [W_1, u_1];
+    exercise_2(answer_2): E[O^(2)] and Var(O^(2)) under multinomial, systematic and residual resampling [W_2, M_2];
     exercise_3(answer_3): resamplings per record at three ESS thresholds, and the threshold of largest RMSE; the
         function threshold_experiment(thresholds) the statement asks for is called [thresholds,
-        threshold_experiment];
-    exercise_4(answer_4, n_particles): the smallest roughening K that keeps track, and its NEES verdict [K_values].
+        threshold_experiment, N_3, seed_filters_3, batch_lg, lg_bench];
+    exercise_4(answer_4, n_particles): the smallest roughening constant kappa that keeps track, and its NEES
+        verdict [kappa_values, seed_filters_4, max_lost_4, lost_metres_4, t_from_4, sims_v].
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import functools
 import math
 import numbers
 import re
+from typing import NamedTuple
 
 import numpy as np
 from scipy import stats
@@ -32,12 +34,12 @@ RECORDS_3, T_3, N_3, SEED_RECORDS_3, SEED_FILTERS_3, THRESHOLDS_3 = 20, 50, 500,
 # 0.004): 20 % of the reference, at least 1, is more than 4 sd for every seed.
 RTOL_3, ATOL_3 = 0.2, 1.0
 RUNS_4, T_4, N_4 = 20, 60, 500
-SEED_RECORDS_4, SEED_FILTERS_4, K_VALUES_4 = 25, 28, (0.1, 0.2, 2.0)   # far from the 5-run limit
+SEED_RECORDS_4, SEED_FILTERS_4, KAPPA_VALUES_4 = 25, 28, (0.1, 0.2, 2.0)   # far from the 5-run limit
 LOST_METRES_4, MAX_LOST_4, T_FROM_4, NEES_DOF_4 = 5.0, 5, 30, 4
 NEES_MEDIAN_4 = float(stats.chi2.median(NEES_DOF_4))      # 3.357: what a median NEES is compared with
 VERDICTS_4 = ("overconfident", "conservative")
-# Over 300 runs at N = 500: lost in 95 % (K = 0.1), 85 % (0.2), 2 % (2.0); median NEES at 2.0: 1.6-2.6.
-FIRST = "a_j is the first i with p_j < Ω^(i)"
+# Over 300 runs at N = 500: lost in 95 % (kappa = 0.1), 85 % (0.2), 2 % (2.0); median NEES at 2.0: 1.6-2.6.
+FIRST = "a_j is the first i with u_j < Ω^(i)"
 
 
 def _number(value, what: str):
@@ -79,17 +81,17 @@ def exercise_1(my_systematic) -> Feedback:
         in_range = a.min() >= 0 and a.max() <= n - 1
         lower = np.r_[0.0, C][idx]                               # C_(a_j - 1), with C_(-1) = 0
         if whole and in_range and ascending and np.all(w[idx] > 0) and np.all(p >= lower - TOL_INDEX) \
-                and np.all(p < C[idx] + TOL_INDEX):              # the first i with p_j < Ω^(i), up to round-off
+                and np.all(p < C[idx] + TOL_INDEX):              # the first i with u_j < Ω^(i), up to round-off
             return None
         counts, many, find = np.bincount(ref, minlength=n), n > 1, functools.partial(np.searchsorted, C, side="right")
         seen = lambda wrong: _matches(a, wrong, 0.0, 1e-9)  # noqa: E731 - a is that mistake's output
         bad, j = int(a.max()) if a.max() > n - 1 else int(a.min()), int(np.argmax(a != ref))
         mistakes = [  # (is the mistake seen, its message), in the order they are tried
-            (seen(counts), f" returns offspring counts N_i on {s}. The filter needs the ancestor indices a_j, one per "
+            (seen(counts), f" returns offspring counts O^(i) on {s}. The filter needs the ancestor indices a_j, one per "
                            f"new particle (x_new = x[a]): np.repeat(np.arange(N), counts)."),
             (seen(np.cumsum(counts)), f" returns cumulative offspring counts on {s}, not the ancestor of each "
                                       f"point: {FIRST}."),
-            (seen(p), f" returns the points p_j = (j + u)/N themselves on {s}; return, for each point, the index "
+            (seen(p), f" returns the points u_j = (j + u)/N themselves on {s}; return, for each point, the index "
                       f"of the piece [Ω^(i-1), Ω^(i)) it falls in."),
             (seen(ref + 1), f"'s indices are shifted by one on {s}: each is one more than the ancestor (a leading 0 in "
                             f"the cumulative sums?). The code numbers particles from 0 (the maths from 1); {FIRST}."),
@@ -101,29 +103,30 @@ def exercise_1(my_systematic) -> Feedback:
             (many and seen(np.searchsorted(C, p, side="left")), f" picks a particle of weight 0 on {s}: a point "
              f"equal to an Ω^(i) belongs to the next piece ({FIRST}, strictly), so use side='right', not 'left'."),
             (many and seen(find(np.arange(n) / n + u)), f" uses the points j/N + u on {s}; the comb is "
-             f"p_j = (j + u)/N: u shifts each tooth by less than 1/N, so the points stay in [0, 1)."),
+             f"u_j = (j + u)/N: u shifts each tooth by less than 1/N, so the points stay in [0, 1)."),
             (many and seen(find((np.arange(1, n + 1) + u) / n)),
-             f" uses p_j = (j + u)/N for j = 1, ..., N on {s}; j runs from 0 to N - 1."),
-            (many and u > 0 and seen(find(np.arange(n) / n)), f" ignores u on {s}: the points are p_j = (j + u)/N, "
+             f" uses u_j = (j + u)/N for j = 1, ..., N on {s}; j runs from 0 to N - 1."),
+            (many and u > 0 and seen(find(np.arange(n) / n)), f" ignores u on {s}: the points are u_j = (j + u)/N, "
                                                               f"not j/N."),
             (not whole, f" returns numbers that are not whole on {s}; ancestor indices are integers 0, ..., N - 1."),
             (np.array_equal(np.sort(a), ref), f" returns the right ancestors in the wrong order on {s}: like the "
-                                              f"points p_j, they must be sorted ascending."),
+                                              f"points u_j, they must be sorted ascending."),
             (not in_range, f" returns the index {bad} on {s}, out of range: with N = {n} particles the ancestors "
                            f"are 0, ..., {n - 1}." + (" Is the last cumulative weight exactly 1? Every point "
-                                                      "p_j < 1 must find a piece." if bad >= n else "")),
+                                                      "u_j < 1 must find a piece." if bad >= n else "")),
             (np.any(w[idx] <= 0), f" picks particle {idx[np.argmin(w[idx])]} on {s}, whose weight is 0: its piece "
                                   f"[Ω^(i-1), Ω^(i)) is empty. {FIRST} (strictly)."),
             (not ascending, f"'s indices on {s} are not sorted ascending, as the points are."),
-            (True, f" gives a wrong ancestor on {s}: the first at j = {j}, the point p_j = {p[j]:.4f}, put in "
+            (True, f" gives a wrong ancestor on {s}: the first at j = {j}, the point u_j = {p[j]:.4f}, put in "
                    f"particle {idx[j]}'s piece [Ω^(i-1), Ω^(i)). Stack the normalised weights (Ω^(i) = W^(1) + ... + "
-                   f"W^(i)) and take the first i with p_j < Ω^(i)."),
+                   f"W^(i)) and take the first i with u_j < Ω^(i)."),
         ]
         return _wrong("my_systematic" + next(message for mistake, message in mistakes if mistake))
     rng, six, what, floats = np.random.default_rng(606), np.array(SIX_WEIGHTS), "my_systematic", []
     w50, w1000 = rng.exponential(size=50), rng.exponential(size=1000) ** 3
     w50[[3, 17, 18]] = 0.0                                    # unnormalised, with three zero weights
-    cases = [(six, U_STATEMENT), (six, 0.0), (np.array([0.0, 0.0, 1.0, 0.0, 0.0]), 0.3), (np.array([0.0, 0.5, 0.5]),
+    six_given = np.array(given("W_1", SIX_WEIGHTS), dtype=float)       # the statement's try-out
+    cases = [(six_given, float(given("u_1", U_STATEMENT))), (six, 0.0), (np.array([0.0, 0.0, 1.0, 0.0, 0.0]), 0.3), (np.array([0.0, 0.5, 0.5]),
              0.0), (3.0 * six, 0.4), (np.array([0.3, 0.2, 0.1]), 0.9), (np.array([1.0]), 0.7),
              (w50, float(rng.random())), (w1000 / w1000.sum(), float(rng.random()))]
     if my_systematic is not None and my_systematic is not Ellipsis and not callable(my_systematic):
@@ -142,7 +145,7 @@ def exercise_1(my_systematic) -> Feedback:
                             "did you search the cumulative weights C in the points?"}
             return _wrong(f"{what} returns {a.size} indices (shape {a.shape}) on {s}; resampling to the same "
                           f"number of particles needs a 1-D array of N = {n}." + extra.get(a.size, (
-                              " One index per point p_j, even when several points share an ancestor."
+                              " One index per point u_j, even when several points share an ancestor."
                               if 0 < a.size < n else "")))
         feedback = _diagnose_1(a, w, u, s)
         if feedback is not None:
@@ -151,7 +154,7 @@ def exercise_1(my_systematic) -> Feedback:
                 if again.shape != a.shape or not np.array_equal(again, a):
                     return _wrong(f"{what} gives different ancestors when called twice on {s}: it draws random "
                                   f"numbers. Systematic resampling is a fixed function of the weights and the "
-                                  f"given u (the comb p_j = (j + u)/N): no generator, no bf.resampling.")
+                                  f"given u (the comb u_j = (j + u)/N): no generator, no bf.resampling.")
             return feedback
         floats.append(np.asarray(out).dtype.kind == "f")
         return Feedback(CORRECT, "")
@@ -173,7 +176,7 @@ def exercise_1(my_systematic) -> Feedback:
 
 # --- exercise 2: the offspring count of particle 1 --------------------------------------------------------
 def _law_2(W: np.ndarray, M: int, i: int) -> np.ndarray:
-    """[E N_i, Var N_i multinomial, systematic (exact: N_i is a step function of u, with steps at the fractional
+    """[E O_i, Var O_i multinomial, systematic (exact: O_i is a step function of u, with steps at the fractional
     parts of M C_k), residual (floor(M W^(i)) + Binomial(M̃, φ^(i) / M̃))]."""
     MW = M * W / W.sum()
     cuts = np.unique(np.clip(np.r_[0.0, 1.0, MW.cumsum() % 1.0], 0.0, 1.0))
@@ -184,7 +187,7 @@ def _law_2(W: np.ndarray, M: int, i: int) -> np.ndarray:
 
 
 def exercise_2(answer) -> Feedback:
-    """``answer_2 = np.array([E N^(2), Var multinomial, Var systematic, Var residual])``, to 3 decimals."""
+    """``answer_2 = np.array([E O^(2), Var multinomial, Var systematic, Var residual])``, to 3 decimals."""
     weights, M = np.array(given("W_2", WEIGHTS_2), dtype=float), int(given("M_2", M_2))
 
     def _variants_2() -> list[list[tuple[float, str]]]:
@@ -195,27 +198,27 @@ def exercise_2(answer) -> Feedback:
         f, std = MW % 1.0, "is a standard deviation; the question asks for the variance (its square)."
         zero = (f"is the value for particle 1 (weight {W[0]:g}): the code's index 0, since it is numbered from 0; "
                 f"the exercise's particle 2 is the one with weight W^(2) = {W[1]:g}.")
-        whole = "is a whole number; an expected count need not be one: unbiasedness says E[N^(i)] = M W^(i) exactly."
+        whole = "is a whole number; an expected count need not be one: unbiasedness says E[O^(i)] = M W^(i) exactly."
         return [
             [(w, f"is the probability W^(2) that one draw picks particle 2; over M = {M} draws the expected number "
                  f"of copies is M W^(2)."), (MW // 1, whole), (MW // 1 + 1, whole),
              (M / len(W), "is M / N, the expected count of equal weights; particle 1 gets M W^(2)."), (other[0], zero)],
-            [(MW, f"is M W^(2) (a Poisson variance); the multinomial count is binomial, Var(N^(2)) = {mw}."),
+            [(MW, f"is M W^(2) (a Poisson variance); the multinomial count is binomial, Var(O^(2)) = {mw}."),
              (w * (1 - w), f"is the variance W^(2) (1 - W^(2)) of one draw's indicator; the M independent draws add "
                            f"up: {mw}."),
              (MW * (1 - MW), f"puts M W^(2) inside the bracket; the formula is {mw}, with the weight W^(2) in "
                              f"(1 - W^(2))."),
              (M * M * w * (1 - w), f"has M^2; the variance of a sum of M independent indicators is M times the "
                                    f"variance of one: {mw}."), (math.sqrt(M * w * (1 - w)), std), (other[1], zero)],
-            [(M * w * (1 - w), "is the multinomial variance; the systematic comb puts the teeth 1/M apart, so N^(2) is "
+            [(M * w * (1 - w), "is the multinomial variance; the systematic comb puts the teeth 1/M apart, so O^(2) is "
                                "always floor(M W^(2)) or ceil(M W^(2)): Var = φ (1 - φ) with φ = M W^(2) - floor(M "
                                "W^(2))."),
-             (f, "is φ = M W^(2) - floor(M W^(2)), the probability that N^(2) takes the larger value; the variance of "
+             (f, "is φ = M W^(2) - floor(M W^(2)), the probability that O^(2) takes the larger value; the variance of "
                  "floor(M W^(2)) + Bernoulli(φ) is φ (1 - φ)."),
              (1 - f, "is 1 - φ, the probability of the smaller value; the variance of floor(M W^(2)) + Bernoulli(φ) is "
                      "φ (1 - φ), with φ = M W^(2) - floor(M W^(2))."),
-             (0.0, "would mean that N^(2) is always the same number, which happens only when M W^(2) is a whole "
-                   "number; here it is not, so N^(2) takes two values."),
+             (0.0, "would mean that O^(2) is always the same number, which happens only when M W^(2) is a whole "
+                   "number; here it is not, so O^(2) takes two values."),
              (0.25, "is 1/4, the variance of a fair coin; here the larger value has probability "
                     "φ = M W^(2) - floor(M W^(2)), and Var = φ (1 - φ)."), (math.sqrt(f * (1 - f)), std)],
             [(f * (1 - f), f"is φ (1 - φ), the systematic variance (or the residual one with M̃ = 1). The residual "
@@ -232,7 +235,7 @@ def exercise_2(answer) -> Feedback:
              (other[3], zero)] + [(f * (1 - f / r), f"uses the wrong number of residual draws M̃: {res}, with the "
                                                     f"floors of all four particles.") for r in range(2, M + 1)
                                   if r != R]]
-    what, order = "answer_2", "np.array([E_N1, var_multinomial, var_systematic, var_residual])"
+    what, order = "answer_2", "np.array([E_O2, var_multinomial, var_systematic, var_residual])"
     if answer is None or answer is Ellipsis:
         return _not_attempted(what)
     a, bad = _as_numbers(answer, what)
@@ -243,13 +246,13 @@ def exercise_2(answer) -> Feedback:
     close = np.isclose(a, ref, rtol=0, atol=ATOL_HAND)
     if close.all():
         return Feedback(CORRECT, f"{what} matches the reference: all four schemes are unbiased (the same "
-                                 f"E[N^(2)]), and systematic resampling, whose count takes only the two whole "
+                                 f"E[O^(2)]), and systematic resampling, whose count takes only the two whole "
                                  f"numbers next to M W^(2), adds the least noise here.")
     if sorted(np.round(a, 3)) == sorted(np.round(ref, 3)):
-        return _wrong(f"{what} has the right numbers in the wrong order: E[N^(2)], then the variances under "
+        return _wrong(f"{what} has the right numbers in the wrong order: E[O^(2)], then the variances under "
                       f"multinomial, systematic and residual resampling.")
     k = int(np.argmin(close))
-    label = f"{what}[{k}] (" + ("E[N^(2)])" if k == 0 else f"Var(N^(2)), "
+    label = f"{what}[{k}] (" + ("E[O^(2)])" if k == 0 else f"Var(O^(2)), "
                                  f"{('multinomial', 'systematic', 'residual')[k - 1]})")
     message = next((m for v, m in _variants_2()[k] if abs(a[k] - v) <= ATOL_HAND < abs(v - ref[k])),
                    "is negative; a variance never is." if k > 0 and a[k] < -ATOL_HAND else
@@ -261,16 +264,41 @@ def exercise_2(answer) -> Feedback:
 
 
 # --- exercise 3: the ESS threshold ------------------------------------------------------------------------
+class _Setup3(NamedTuple):
+    """Section 3's experiment as the statement gives it (the notebook's variables)."""
+    n: int                  # N_3, particles
+    seed_filters: int       # seed_filters_3
+    lg: tuple               # lg_bench's (A, C, Q, R, m0, P0), as nested tuples
+    ys: bytes               # batch_lg.ys, its bytes (a cache key)
+    shape: tuple            # ... and its shape
+
+
+def _setup_3() -> _Setup3:
+    """The statement's numbers and data, from the notebook where it has them."""
+    batch, lg = given("batch_lg", None), given("lg_bench", None)
+    if lg is None:
+        lg = models.LinearGaussian(**LG_3)
+    if batch is None:
+        batch = models.simulate_many(lg, RECORDS_3, T_3, np.random.default_rng(SEED_RECORDS_3))
+    ys = np.ascontiguousarray(batch.ys, dtype=float)
+    matrices = tuple(tuple(np.asarray(getattr(lg, k), dtype=float).ravel()) for k in ("A", "C", "Q", "R", "m0", "P0"))
+    return _Setup3(int(given("N_3", N_3)), int(given("seed_filters_3", SEED_FILTERS_3)), matrices, ys.tobytes(),
+                   ys.shape)
+
+
 @functools.lru_cache(maxsize=4)
-def _experiment_3(thresholds: tuple = THRESHOLDS_3) -> tuple[np.ndarray, float, float]:
+def _experiment_3(thresholds: tuple = THRESHOLDS_3, setup: _Setup3 | None = None) -> tuple[np.ndarray, float, float]:
     """(mean resamplings per record per threshold, the threshold of largest RMSE, of smallest)."""
-    lg = models.LinearGaussian(**LG_3)
-    records = models.simulate_many(lg, RECORDS_3, T_3, np.random.default_rng(SEED_RECORDS_3))
-    kfs, counts, rmse = [kalman.kalman_filter(lg, ys) for ys in records.ys], [], []
+    setup = setup or _setup_3()
+    A, C, Q, R, m0, P0 = (np.array(v) for v in setup.lg)
+    lg = models.LinearGaussian(A=A.reshape(1, 1), C=C.reshape(1, 1), Q=Q.reshape(1, 1), R=R.reshape(1, 1), m0=m0,
+                               P0=P0.reshape(1, 1))
+    records = np.frombuffer(setup.ys).reshape(setup.shape)
+    kfs, counts, rmse = [kalman.kalman_filter(lg, ys) for ys in records], [], []
     for theta in thresholds:
-        rng = np.random.default_rng(SEED_FILTERS_3)
-        runs = [(particle.particle_filter(lg, ys, N_3, rng, ess_threshold=theta), kf)
-                for ys, kf in zip(records.ys, kfs)]
+        rng = np.random.default_rng(setup.seed_filters)
+        runs = [(particle.particle_filter(lg, ys, setup.n, rng, ess_threshold=theta), kf)
+                for ys, kf in zip(records, kfs)]
         counts.append(np.mean([res.resampled.sum() for res, _ in runs]))
         rmse.append(np.mean([np.mean((r.means[:, 0] - kf.means[:, 0]) ** 2 / kf.covs[:, 0, 0]) for r, kf in runs]))
     return np.array(counts), thresholds[int(np.argmax(rmse))], thresholds[int(np.argmin(rmse))]
@@ -280,12 +308,13 @@ def exercise_3(answer) -> Feedback:
     """``answer_3 = (resamplings, theta_worst)``; the counts within 20 % (at least 1), for any seed; the
     statement's threshold_experiment(thresholds), which must give them, is called once."""
     thresholds = tuple(float(t) for t in given("thresholds", THRESHOLDS_3))
-    value, fun = _answer_3(answer, thresholds), given("threshold_experiment", None)
+    setup = _setup_3()
+    value, fun = _answer_3(answer, thresholds, setup=setup), given("threshold_experiment", None)
     if fun is None:                       # no notebook (a unit test): the answer alone
         return value
 
     def judge(out, where, args) -> Feedback:
-        fb = _answer_3(out, thresholds, "threshold_experiment(thresholds)")
+        fb = _answer_3(out, thresholds, "threshold_experiment(thresholds)", setup)
         return Feedback(CORRECT, "") if fb.correct else fb
     helper = _each_case(fun, "threshold_experiment", [(thresholds,)], [""], judge)
     if helper.status == NOT_ATTEMPTED and value.status != NOT_ATTEMPTED:
@@ -294,7 +323,7 @@ def exercise_3(answer) -> Feedback:
     return value if helper.correct else _combine([("answer_3", value), ("threshold_experiment", helper)])
 
 
-def _answer_3(answer, thresholds: tuple, what: str = "answer_3") -> Feedback:
+def _answer_3(answer, thresholds: tuple, what: str = "answer_3", setup: _Setup3 | None = None) -> Feedback:
     per = "give the number of resamplings per record (res.resampled.sum())."
     pair, bad = _pair(answer, what, "resamplings", "theta_worst")
     if bad is not None and isinstance(answer, (np.ndarray, list, tuple)) and np.size(answer) == 3:
@@ -307,7 +336,7 @@ def _answer_3(answer, thresholds: tuple, what: str = "answer_3") -> Feedback:
     if bad is not None or a.shape != (3,):
         return bad or _wrong(f"{label} must hold three numbers, one for each threshold {listed}; got "
                              f"shape {a.shape}.")
-    ref, worst, best = _experiment_3(thresholds)
+    ref, worst, best = _experiment_3(thresholds, setup or _setup_3())
     near = lambda x, y: np.abs(x - y) <= np.maximum(ATOL_3, RTOL_3 * np.abs(y))  # noqa: E731
     k = int(np.argmin(near(a, ref)))
     for value, message in [  # (a wrong answer, its message); the last: too large or too small
@@ -321,7 +350,7 @@ def _answer_3(answer, thresholds: tuple, what: str = "answer_3") -> Feedback:
             (a if np.any(np.diff(a) < 0) else np.nan, "falls as the threshold rises; a higher threshold theta N "
              "is reached sooner, so the filter resamples more often. Check which ess_threshold each run used."),
             (a, f"is too {'large' if a[k] > ref[k] else 'small'} for theta = {thresholds[k]:g} (beyond Monte "
-                f"Carlo noise). Run the 20 records of section 3 (batch_lg, N = {N_3}) with "
+                f"Carlo noise). Run the 20 records of section 3 (batch_lg, N = {(setup or _setup_3()).n}) with "
                 f"ess_threshold={thresholds[k]:g} and average res.resampled.sum() over them.")]:
         if not near(a, ref).all() and near(a, value).all() and not near(value, ref).all():
             return _wrong(f"{label} {message}")
@@ -344,22 +373,46 @@ def _answer_3(answer, thresholds: tuple, what: str = "answer_3") -> Feedback:
 
 
 # --- exercise 4: tuning roughening ------------------------------------------------------------------------
+class _Setup4(NamedTuple):
+    """Exercise 4's experiment as the statement gives it (the notebook's variables)."""
+    n: int                  # N_4 of the check cell, particles
+    seed_filters: int       # seed_filters_4
+    max_lost: int           # max_lost_4: keeps track when it loses at most this many runs
+    lost_metres: float      # lost_metres_4: a run is lost beyond this final position error
+    t_from: int             # t_from_4: the median NEES is over the steps t >= t_from
+    xs: bytes               # sims_v's states and measurements, as bytes (a cache key), and shapes
+    ys: bytes
+    shapes: tuple
+
+
+def _setup_4(n_particles: int) -> _Setup4:
+    sims = given("sims_v", None)
+    if sims is None:
+        sims = models.simulate_many(models.range_bearing(), RUNS_4, T_4, np.random.default_rng(SEED_RECORDS_4),
+                                    x0=models.RANGE_BEARING_TRUE_START)
+    xs, ys = (np.ascontiguousarray(a, dtype=float) for a in (sims.xs, sims.ys))
+    return _Setup4(int(n_particles), int(given("seed_filters_4", SEED_FILTERS_4)), int(given("max_lost_4", MAX_LOST_4)),
+                   float(given("lost_metres_4", LOST_METRES_4)), int(given("t_from_4", T_FROM_4)), xs.tobytes(),
+                   ys.tobytes(), (xs.shape, ys.shape))
+
+
 @functools.lru_cache(maxsize=4)
-def _experiment_4(k_values: tuple = K_VALUES_4, n_particles: int = N_4) -> tuple[float, str]:
-    """(the smallest K of k_values that loses at most MAX_LOST_4 runs, its NEES verdict)."""
+def _experiment_4(kappa_values: tuple, setup: _Setup4) -> tuple[float, str]:
+    """(the smallest kappa of kappa_values that loses at most setup.max_lost runs, its NEES verdict)."""
     vehicle = models.range_bearing()
-    sims = models.simulate_many(vehicle, RUNS_4, T_4, np.random.default_rng(SEED_RECORDS_4),
-                                x0=models.RANGE_BEARING_TRUE_START)
-    for K in sorted(k_values):
-        rng, nees, lost = np.random.default_rng(SEED_FILTERS_4), np.empty((RUNS_4, T_4)), 0
-        for r, (xs, ys) in enumerate(zip(sims.xs, sims.ys)):   # section 6's roughened SIR
-            res = particle.particle_filter(vehicle, ys, n_particles, rng, ess_threshold=1.0, roughening=K)
+    xs_all = np.frombuffer(setup.xs).reshape(setup.shapes[0])
+    ys_all = np.frombuffer(setup.ys).reshape(setup.shapes[1])
+    runs, T = xs_all.shape[:2]
+    for kappa in sorted(kappa_values):
+        rng, nees, lost = np.random.default_rng(setup.seed_filters), np.empty((runs, T)), 0
+        for r, (xs, ys) in enumerate(zip(xs_all, ys_all)):   # section 6's roughened SIR
+            res = particle.particle_filter(vehicle, ys, setup.n, rng, ess_threshold=1.0, roughening=kappa)
             nees[r] = gaussian.squared_mahalanobis(xs - res.means, res.covs, singular="inf")
-            lost += np.linalg.norm(models.positions(vehicle, xs - res.means)[-1]) > LOST_METRES_4
-            if lost > MAX_LOST_4:  # this K loses track, whatever the remaining runs do
+            lost += np.linalg.norm(models.positions(vehicle, xs - res.means)[-1]) > setup.lost_metres
+            if lost > setup.max_lost:  # this kappa loses track, whatever the remaining runs do
                 break
-        if lost <= MAX_LOST_4:
-            return K, VERDICTS_4[int(np.median(nees[:, T_FROM_4:]) <= NEES_MEDIAN_4)]
+        if lost <= setup.max_lost:
+            return kappa, VERDICTS_4[int(np.median(nees[:, setup.t_from:]) <= NEES_MEDIAN_4)]
     return math.nan, ""
 
 
@@ -368,46 +421,48 @@ _VERDICT_WORDS = {"overconfident": "overconfident", "above": "overconfident",   
 
 
 def exercise_4(answer, n_particles: int = N_4) -> Feedback:
-    """``answer_4 = (K_min, verdict)`` among K_values; ``n_particles``: N_4 of the check cell."""
-    what, k_values = "answer_4", tuple(sorted(float(k) for k in given("K_values", K_VALUES_4)))
+    """``answer_4 = (kappa_min, verdict)`` among kappa_values; ``n_particles``: N_4 of the check cell."""
+    what = "answer_4"
+    k_values = tuple(sorted(float(k) for k in given("kappa_values", KAPPA_VALUES_4)))
     if isinstance(n_particles, (bool, np.bool_)) or not isinstance(n_particles, numbers.Integral) or n_particles < 1:
         return _wrong(f"the check cell passes N_4, the number of particles of the answer cell (a positive int); "
                       f"got n_particles = {n_particles!r}.")
-    pair, bad = _pair(answer, what, "K_min", "verdict")
+    pair, bad = _pair(answer, what, "kappa_min", "verdict")
     if bad is not None:
         return bad
     first, second = pair
     if isinstance(first, str) and not isinstance(second, str) and first.strip().lower() in _VERDICT_WORDS:
-        return _wrong(f"{what} is in the wrong order: first K_min, then the verdict.")
-    v, bad = _number(first, f"{what}[0] (K_min)")
-    K = None if bad else next((K for K in k_values if math.isclose(v, K, abs_tol=1e-9)), None)
-    if K is None:
-        return bad or _wrong(f"{what}[0] (K_min) must be one of the roughening constants {list(k_values)}" + (
-            " (a number of lost runs? give the roughening constant K itself)" if v.is_integer() else "") + ".")
-    K_ref, verdict_ref = _experiment_4(k_values, int(n_particles))
-    if math.isnan(K_ref):
+        return _wrong(f"{what} is in the wrong order: first kappa_min, then the verdict.")
+    v, bad = _number(first, f"{what}[0] (kappa_min)")
+    kappa = None if bad else next((k for k in k_values if math.isclose(v, k, abs_tol=1e-9)), None)
+    if kappa is None:
+        return bad or _wrong(f"{what}[0] (kappa_min) must be one of the roughening constants {list(k_values)}" + (
+            " (a number of lost runs? give the roughening constant kappa itself)" if v.is_integer() else "") + ".")
+    setup = _setup_4(int(n_particles))
+    runs, lost_m, max_lost, t_from = setup.shapes[0][0], setup.lost_metres, setup.max_lost, setup.t_from
+    k_ref, verdict_ref = _experiment_4(k_values, setup)
+    if math.isnan(k_ref):
         return _wrong(f"{what}[0]: none of the constants {list(k_values)} keeps track (each loses more than "
-                      f"{MAX_LOST_4} of the {RUNS_4} runs): the statement's K_values need a larger one.")
-    if K < K_ref:
-        return _wrong(f"{what}[0]: with K = {K:g} the jitter is too small to separate the copies: the filter loses "
-                      f"more than {MAX_LOST_4} of the {RUNS_4} runs (final position error above "
-                      f"{LOST_METRES_4:g} m). Did you count the runs kept instead of those lost, or the error at "
-                      f"the first step instead of the last?")
-    if K > K_ref:
-        return _wrong(f"{what}[0]: K = {K:g} keeps track, but a smaller K of the list also loses at most "
-                      f"{MAX_LOST_4} runs; the question asks for the smallest.")
+                      f"{max_lost} of the {runs} runs): the statement's kappa_values need a larger one.")
+    if kappa < k_ref:
+        return _wrong(f"{what}[0]: with kappa = {kappa:g} the jitter is too small to separate the copies: the filter "
+                      f"loses more than {max_lost} of the {runs} runs (final position error above {lost_m:g} m). "
+                      f"Did you count the runs kept instead of those lost, or the error at the first step instead "
+                      f"of the last?")
+    if kappa > k_ref:
+        return _wrong(f"{what}[0]: kappa = {kappa:g} keeps track, but a smaller kappa of the list also loses at most "
+                      f"{max_lost} runs; the question asks for the smallest.")
     verdict = _VERDICT_WORDS.get(second.strip().lower()) if isinstance(second, str) else None
     if verdict is None:
         return _wrong(f"{what}[1] (the verdict) must be one of the words {list(VERDICTS_4)}, got "
                       f"{repr(second) if isinstance(second, str) else type(second).__name__}.")
     if verdict != verdict_ref:
-        return _wrong(f"{what}[1], the verdict, is not what the median NEES of K = {K:g} says: look again at it "
-                      f"over all runs and the steps t >= {T_FROM_4} (np.median(nees[:, {T_FROM_4}:])). The NEES is "
-                      f"the squared error in the "
-                      f"filter's own standard deviations; for a consistent filter it is chi-squared with mean "
-                      f"d = {NEES_DOF_4} and median {NEES_MEDIAN_4:.3f}, the value a median is compared with: "
-                      f"above it, the errors are larger than the covariance claims (overconfident); below, the "
-                      f"covariance is larger than the errors (conservative).")
+        return _wrong(f"{what}[1], the verdict, is not what the median NEES of kappa = {kappa:g} says: look again at "
+                      f"it over all runs and the steps t >= {t_from} (np.median(nees[:, {t_from}:])). The NEES is "
+                      f"the squared error in the filter's own standard deviations; for a consistent filter it is "
+                      f"chi-squared with mean d = {NEES_DOF_4} and median {NEES_MEDIAN_4:.3f}, the value a median "
+                      f"is compared with: above it, the errors are larger than the covariance claims "
+                      f"(overconfident); below, the covariance is larger than the errors (conservative).")
     return Feedback(CORRECT, f"{what} is right: too little jitter leaves the copies together and the cloud loses "
                              f"the vehicle; enough jitter keeps track, at the price of a covariance larger than "
                              f"the errors (roughening is artificial process noise).")
