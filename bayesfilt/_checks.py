@@ -24,6 +24,7 @@ __all__ = [
     "as_rng",
     "check_callable",
     "as_noise_gain",
+    "as_inputs",
     "check_output",
     "require_finite",
     "observation_masks",
@@ -203,6 +204,23 @@ def as_noise_gain(G, n: int, q: int) -> np.ndarray:
                              f"got shape ({q}, {q})")
         return np.eye(n)
     return as_matrix("G", G, (n, q))
+
+
+def as_inputs(model, us, T: int):
+    """The known inputs u_0..u_{T-2} of ``model``: a (T - 1, p) array (T rows are accepted
+    and the last is dropped), or None when ``us`` is None.
+
+    Refused: inputs for a model without a control matrix B, a column count other than
+    the model's ``control_dim``, and a row count other than T - 1 or T.
+    """
+    if us is None:
+        return None
+    if getattr(model, "B", None) is None:
+        raise ValueError("us was given but the model has no control matrix B")
+    us = as_matrix("us", us, (None, model.control_dim))
+    if us.shape[0] not in (T - 1, T):
+        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {us.shape[0]}")
+    return us[: T - 1]
 
 
 def check_output(what: str, out, shape: tuple[int, ...], at=None) -> np.ndarray:

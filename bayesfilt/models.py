@@ -75,7 +75,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ._checks import (as_array, as_covariance, as_int, as_matrix, as_noise_gain,
+from ._checks import (as_array, as_covariance, as_inputs, as_int, as_matrix, as_noise_gain,
                       as_positive_float, as_rng, as_vector, check_callable, check_output)
 from .gaussian import _apply_to_rows, _cholesky, _logpdf_rows, _lower_inverse
 from .gaussian import _factor as _noise_factor  # L L^T = cov, also for a singular cov
@@ -715,12 +715,7 @@ def simulate(model, T: int, rng: np.random.Generator, us=None, x0=None) -> Simul
     T = as_int("T", T, minimum=1)
     rng = as_rng("rng", rng)
     n = model.state_dim
-    if us is not None:
-        if getattr(model, "B", None) is None:
-            raise ValueError("us was given but the model has no control matrix B")
-        us = as_matrix("us", us, (None, model.control_dim))
-        if us.shape[0] not in (T - 1, T):
-            raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {us.shape[0]}")
+    us = as_inputs(model, us, T)
     xs = np.empty((T, n))
     xs[0] = model.sample_initial(rng, 1)[0] if x0 is None else as_vector("x0", x0, n)
     for t in range(T - 1):

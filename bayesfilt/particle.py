@@ -69,8 +69,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ._checks import (as_int, as_matrix, as_positive_float, as_rng, as_vector, check_callable,
-                      check_output, observation_masks)
+from ._checks import (as_inputs, as_int, as_matrix, as_positive_float, as_rng, as_vector,
+                      check_callable, check_output, observation_masks)
 from .gaussian import _cholesky, _factor, _logpdf_rows
 from .resampling import SCHEMES
 
@@ -615,17 +615,6 @@ def _check_ys(ys, m: int):
     return (ys,) + observation_masks(ys)
 
 
-def _check_us(model, us, T):
-    if us is None:
-        return None
-    if getattr(model, "B", None) is None:
-        raise ValueError("us was given but the model has no control matrix B")
-    us = as_matrix("us", us, (None, model.control_dim))
-    if us.shape[0] not in (T - 1, T):
-        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {us.shape[0]}")
-    return us
-
-
 def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="systematic",
                     ess_threshold: float = 0.5, us=None, keep_history: bool = False,
                     roughening: float | None = None) -> ParticleFilterResult:
@@ -719,7 +708,7 @@ def particle_filter(model, ys, n_particles: int, rng, proposal=None, resample="s
     full = components.all(axis=1)
     if not full[observed].all():
         _check_marginal(model, f"ys row {int(np.flatnonzero(observed & ~full)[0])}")
-    us = _check_us(model, us, T)
+    us = as_inputs(model, us, T)
     if proposal is not None and us is not None:
         raise ValueError("proposal: a Proposal's sample and logpdf receive no control input u, "
                          "so eq. (13) would divide p(x_t | x_(t-1), u) by a q without u; use "

@@ -87,9 +87,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy import linalg as sla
 
-from ._checks import as_array, as_int, as_matrix, as_rng
+from ._checks import as_array, as_inputs, as_int, as_matrix, as_rng
 from .bayes import GridFilterResult
-from .kalman import FilterResult
+from .kalman import FilterResult, _check_inputs
 from .models import LinearGaussian, NonlinearGaussian, _ModelBase
 from .particle import ParticleHistory
 
@@ -269,21 +269,9 @@ def _check_filter_result(model: LinearGaussian, result) -> bool:
 
 
 def _check_us(model, us, T: int, M: int | None):
-    """The inputs u_0..u_{T-2} as (R, T - 1, p), R = 1 or M, or None; like kalman_filter's."""
-    if us is None:
-        return None
-    if model.B is None:
-        raise ValueError("us was given but the model has no control matrix B")
-    p = model.control_dim
-    a = as_array("us", us)
-    shared = a.ndim == 2 and a.shape[1] == p
-    if not (shared or (M is not None and a.ndim == 3 and a.shape[0] == M and a.shape[2] == p)):
-        want = f"(T - 1, {p})" + ("" if M is None else f" or ({M}, T - 1, {p})")
-        raise ValueError(f"us must have shape {want}, got shape {a.shape}")
-    if a.shape[-2] not in (T - 1, T):
-        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {a.shape[-2]}")
-    a = a[..., :T - 1, :]
-    return a[None] if shared else a
+    """The inputs u_0..u_{T-2} as (R, T - 1, p), R = 1 or M, or None; as kalman_filter's."""
+    a = _check_inputs(model, us, T, M)
+    return a if a is None or a.ndim == 3 else a[None]
 
 
 def _check_dynamics(model, covs, pred_covs, means, pred_means, Bus, runs: list[str]):
@@ -685,12 +673,7 @@ def ffbsi(model, history: ParticleHistory, n_paths: int, rng, us=None) -> Backwa
     L = as_int("n_paths", n_paths, minimum=1)
     rng = as_rng("rng", rng)
     T, N, n = X.shape
-    if us is not None:
-        if getattr(model, "B", None) is None:
-            raise ValueError("us was given but the model has no control matrix B")
-        us = as_matrix("us", us, (None, model.control_dim))
-        if us.shape[0] not in (T - 1, T):
-            raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {us.shape[0]}")
+    us = as_inputs(model, us, T)
     idx = np.empty((L, T), dtype=np.intp)
     idx[:, T - 1] = _draw_rows(np.broadcast_to(W[T - 1], (L, N)), rng)
     with np.errstate(divide="ignore"):                 # a zero weight has log-weight -inf

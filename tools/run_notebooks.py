@@ -82,8 +82,14 @@ def strip_volatile(nb) -> list[tuple[int, float]]:
     return slow
 
 
-def run(path: Path, timeout: int = 600) -> None:
-    """Execute the notebook at ``path`` in a fresh ``python3`` kernel and save it in place."""
+def run(path: Path, timeout: int = 120) -> None:
+    """Execute the notebook at ``path`` in a fresh ``python3`` kernel and save it in place.
+
+    ``timeout`` (seconds) bounds each cell, as ``--nbval-cell-timeout=120`` does in
+    pytest. Under heavy load, a whole run was once seen to wait for exactly the
+    client's timeout (then 600 s) and finish without an error; it did not recur in
+    eight runs on an idle machine. A shorter bound keeps such a wait short.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"path must be an existing notebook file, got {str(path)!r}")
@@ -91,7 +97,8 @@ def run(path: Path, timeout: int = 600) -> None:
     nb.metadata["kernelspec"] = dict(KERNELSPEC)
     client = NotebookClient(nb, timeout=timeout, kernel_name="python3",
                             resources={"metadata": {"path": str(path.parent)}},
-                            record_timing=True)
+                            record_timing=True,
+                            coalesce_streams=True)  # one stdout block a cell, as nbval compares
     start = time.perf_counter()
     client.execute()
     total = time.perf_counter() - start
