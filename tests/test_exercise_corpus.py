@@ -426,7 +426,7 @@ CH03 = [
         "lag1_5 holds lags 1 and 2 of component 1"),
     Row("3.5", lambda: (lag1()[[2, 1, 0]], "ratio"), INCORRECT, "has its rows in another order"),
     Row("3.5", (np.ones((3, 2)), "ratio"), INCORRECT, "lag1_5 is lag 0"),
-    Row("3.5", lambda: (lag1()[:, :1], "ratio"), INCORRECT, "holds one component of z_t only"),
+    Row("3.5", lambda: (lag1()[:, :1], "ratio"), INCORRECT, "holds one component of r̃_t only"),
     Row("3.5", lambda: (lag1(), "scale"), INCORRECT, "sees_5 is not the right option"),
     Row("3.5", lambda: (lag1(), "the ratio Q/R"), INCORRECT, "sees_5 must be one of"),
 ]

@@ -7,7 +7,7 @@ One line per exercise (the notebook variables each reads with ``given``, in brac
     exercise_3(normalised_squared): the NEES / NIS d_t^T P_t^{-1} d_t, on six inputs;
     exercise_4(end_of_gap_variance, slope_4): the variance at the end of a gap in the data, and its log-log slope
         (and section 1's ys, put back if an answer wrote NaN into it) [ys, short_4, long_4];
-    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of z_t under three mistuned models
+    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of r̃_t under three mistuned models
         [models_5, ys_long].
 """
 
@@ -22,7 +22,7 @@ from . import (INCORRECT, Feedback, _Stop, _as_numbers, _combine, _each_case, _f
 from .. import gaussian, kalman, models
 
 # the statements' numbers (ex 4 tries length 10 first: at length 1, zeros for NaN and one step early agree; ex 5:
-# Q ×10 and R ×0.1 share Q / R, so the gain and z_t); 5 spreads of a lag-1 value between runs of 1000 steps
+# Q ×10 and R ×0.1 share Q / R, so the gain and r̃_t); 5 spreads of a lag-1 value between runs of 1000 steps
 SECTION_1_SEED, T, DAMPING_1, ATOL_1, YES_NO = 2024, 100, 1.0, 2e-4, ("yes", "no")
 DT_2, SIGMA_A_2, M_2, T_2, SEED_2, DAMPING, RTOL_2 = 0.5, 0.1, 200, 200, 22, 0.98, 1e-6
 CORRELATED_3, ERRORS_3, SEED_3 = _frozen([[1.0, 0.95], [0.95, 1.0]]), _frozen([[1.0, -1.0], [1.0, 1.0]]), 3033
@@ -400,7 +400,7 @@ def _ys_long() -> np.ndarray:
 
 
 def _lags(model, ys) -> tuple[np.ndarray, np.ndarray]:
-    """(lags 1-5 of z_t, shape (5, 2); lag 1 of r_t, (2,)) of the filter of model on the long run ys."""
+    """(lags 1-5 of r̃_t, shape (5, 2); lag 1 of r_t, (2,)) of the filter of model on the long run ys."""
     res = kalman.kalman_filter(model, ys)
     z = gaussian.normalised_innovations(res.innovations, res.innovation_covs)
     return gaussian.autocorrelation(z, 5), gaussian.autocorrelation(res.innovations, 1)[0]
@@ -419,7 +419,7 @@ def _lags_of(label: str, ys) -> tuple[np.ndarray, np.ndarray]:
 
 
 def exercise_5(lag1, sees) -> Feedback:
-    """lag1_5 (3, 2), the lag-1 autocorrelations of z_t for the models of models_5 (Q ×10, R ×0.1, R ×10)
+    """lag1_5 (3, 2), the lag-1 autocorrelations of r̃_t for the models of models_5 (Q ×10, R ×0.1, R ×10)
     on ys_long, and sees_5."""
     given_models, w, labels, ys = given("models_5", None), "lag1_5", [label for label, _ in MODELS_5], _ys_long()
     rows = [_lags_of(x, ys) for x in labels] if given_models is None else [_lags(m, ys) for m in given_models]
@@ -441,16 +441,17 @@ def exercise_5(lag1, sees) -> Feedback:
         ("lag1_5", _named(lag1, expected, w, rtol=0.0, atol=ATOL_5, mistakes=[
             (lambda a: a.shape == (20, 2) or (a.ndim == 3 and a.shape[0] == 3), f"{w} must hold lag 1 only, shape "
              f"(3, 2): {lag_is}"),
-            (lambda a: a.shape in ((3, 1), (1, 3)), f"{w} holds one component of z_t only: give both, one column per "
+            (lambda a: a.shape in ((3, 1), (1, 3)), f"{w} holds one component of r̃_t only: give both, one column per "
              f"component, shape (3, 2) (autocorrelation(z, 1)[0] for each model)."),
             (lambda a: a.shape in ((2,), (3,)), lambda a: f"{w} must have shape (3, 2): one row per model (Q ×10, "
-             f"R ×0.1, R ×10), one column per component of z_t; got shape {a.shape}."),
-            (np.ones((3, 2)), f"{w} is lag 0 (any sequence matches itself perfectly); lag 1 pairs z_t with z_{{t+1}}."),
-            *[(np.array([z[:2, c] for z, _ in rows]), f"{w} holds lags 1 and 2 of component {c + 1} of z_t: "
+             f"R ×0.1, R ×10), one column per component of r̃_t; got shape {a.shape}."),
+            (np.ones((3, 2)), f"{w} is lag 0 (any sequence matches itself perfectly); lag 1 pairs r̃_t "
+                              f"with r̃_{{t+1}}."),
+            *[(np.array([z[:2, c] for z, _ in rows]), f"{w} holds lags 1 and 2 of component {c + 1} of r̃_t: "
                + one.format(c)) for c in (0, 1)],
             *[(lag(k), f"{w} is lag {k}; {lag_is}") for k in range(2, 6)],
             (np.array([raw for _, raw in rows]), f"{w} is the autocorrelation of the raw innovations r_t; the test "
-             f"reads z_t = bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)."),
+             f"reads r̃_t = bf.gaussian.normalised_innovations(res.innovations, res.innovation_covs)."),
             *[(expected[list(order)], f"{w} has its rows in another order; the order is Q ×10, R ×0.1, R ×10 "
                f"(models_5).") for order in ((0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0))],
             (lambda a: a.shape == (3, 2) and mixup(a) is not None, mixup),
