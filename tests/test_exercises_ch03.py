@@ -527,7 +527,7 @@ YS_LONG = bf.models.simulate(bf.models.damped_particle(), 1000, np.random.defaul
 
 
 def lags(q_var, r_var, ys=YS_LONG, max_lag=2, normalise=True):
-    """Lags 1..max_lag of z_t = L_t^{-1} r_t, by the formula of section 6."""
+    """Lags 1..max_lag of r~_t = L_t^{-1} r_t, by the formula of optional section 13."""
     _, _, r, S = plain_filter(A, C, G @ (q_var * np.eye(2)) @ G.T, r_var * np.eye(2),
                               np.zeros(4), np.eye(4), ys)
     z = np.array([np.linalg.solve(np.linalg.cholesky(S_t), r_t) for r_t, S_t in zip(r, S)]) \
@@ -543,7 +543,7 @@ LAG1 = LAGS[:, 0]
 
 
 def test_exercise_5_accepts_the_formula():
-    # Q x10 and R x0.1 share Q / R: the same gain, the same z_t after the first steps
+    # Q x10 and R x0.1 share Q / R: the same gain, the same r~_t after the first steps
     assert np.abs(LAG1[0] - LAG1[1]).max() < 1e-3
     assert np.all(LAG1[:2] < -0.062) and np.all(LAG1[2] > 0.062)
     correct(ch03.exercise_5(LAG1, "ratio"))
@@ -574,7 +574,7 @@ def test_exercise_5_diagnoses_the_autocorrelations(answer, phrases):
 
 
 def test_exercise_5_raw_innovations_are_close_enough():
-    """S_t is diagonal here and settles within a few steps, so r_t and z_t agree to 2e-3."""
+    """S_t is diagonal here and settles within a few steps, so r_t and r~_t agree to 2e-3."""
     raw = np.array([lags(q, r, normalise=False)[0] for q, r in ROWS])
     assert np.abs(raw - LAG1).max() < ch03.ATOL_5
     correct(ch03.exercise_5(raw, "ratio"))
