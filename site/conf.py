@@ -154,6 +154,24 @@ def external_as_code(app, env, node, contnode):
     return contnode
 
 
+# --- a numbered multi-line display keeps its \tag --------------------------------------
+
+
+def keep_tags_outside_split(app, doctree, docname):
+    r"""Give MathJax a display that holds both a line break and a tag as written.
+
+    Sphinx wraps every display that contains ``\\`` in ``\begin{split}...\end{split}``,
+    where MathJax refuses ``\tag`` ("\tag not allowed in split environment"), although
+    JupyterLab shows the same cell fine. Such a display is emitted unwrapped instead,
+    inside MathJax's own display delimiters.
+    """
+    for node in doctree.findall(nodes.math_block):
+        text = node.astext()
+        if "\\tag" in text and "\\\\" in text and not node.get("nowrap"):
+            node["nowrap"] = True
+            node.children = [nodes.Text("\\[" + text + "\\]")]
+
+
 # --- figures: a link to the full-size image (tap to zoom on a phone) -----------------------
 
 
@@ -224,6 +242,7 @@ def chapter_header_buttons(app, pagename, templatename, context, doctree):
 
 def setup(app):
     app.connect("doctree-resolved", link_figures_to_full_size)
+    app.connect("doctree-resolved", keep_tags_outside_split)
     app.connect("html-page-context", chapter_header_buttons, priority=502)
     app.connect("missing-reference", resolve_bf_alias)
     app.connect("missing-reference", external_as_code)

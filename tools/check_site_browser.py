@@ -138,7 +138,8 @@ async (codeLimit) => {
     if (img.closest('.bd-article div.cell_output')) {
       const alt = (img.getAttribute('alt') || '').trim();
       const file = src.split('/').pop();
-      if (!alt || alt === src || alt.includes('/') || alt === file || /\.(png|jpe?g|svg|gif)$/i.test(alt))
+      if (!alt || alt === src || (alt.includes('/') && !alt.includes(' ')) || alt === file ||
+          /\.(png|jpe?g|svg|gif)$/i.test(alt))
         result.badAlt.push(`${sectionOf(img)}${cellOf(img)}: alt=${JSON.stringify(alt.slice(0, 60))}`);
       const link = img.closest('a');
       if (!link || link.getAttribute('href').split('/').pop() !== file)
@@ -440,12 +441,16 @@ def check_print(browser, base: str, site: Path, chapters: list[str], out_dir: Pa
         found += [f"a code block is cut in print: {c}" for c in info["cut"]]
         missing = []
         if pdftotext:
-            # -layout: a line's end-of-line comment, far to the right, stays on its line
-            text = subprocess.run([pdftotext, "-layout", "-enc", "UTF-8", str(pdf), "-"],
-                                  capture_output=True,
-                                  text=True, check=True).stdout
-            flat = re.sub(r"\s+", "", text)
-            missing = [line for line in info["lines"] if re.sub(r"\s+", "", line) not in flat]
+            # A line is whole if either reading order of the PDF's text holds it: -layout
+            # keeps a far-right end-of-line comment on its line, but can interleave it
+            # with a display equation just above the cell; -raw keeps the order of
+            # drawing, which is the code block's own.
+            flats = [re.sub(r"\s+", "", subprocess.run(
+                [pdftotext, mode, "-enc", "UTF-8", str(pdf), "-"],
+                capture_output=True, text=True, check=True).stdout)
+                for mode in ("-layout", "-raw")]
+            missing = [line for line in info["lines"]
+                       if not any(re.sub(r"\s+", "", line) in flat for flat in flats)]
             found += [f"code line not whole in the PDF: {line.strip()[:80]}" for line in missing[:10]]
         pages_count = len(re.findall(rb"/Type\s*/Page[^s]", pdf.read_bytes()))
         print(f"{'FAIL' if found else 'PASS'} print {rel}: {pdf.relative_to(ROOT) if pdf.is_relative_to(ROOT) else pdf}"
