@@ -401,6 +401,22 @@ def test_make_lab_installs_a_setting_jupyterlab_knows():
                                                                                 ":kernels") in setting
 
 
+
+def test_binder_postbuild_installs_the_same_setting_as_make_lab(tmp_path):
+    """Binder runs postBuild in its environment: it must write `make lab`'s file, with the same
+    setting, under that environment's prefix (here a stand-in `python` that names tmp_path)."""
+    path, setting = _setting_of_the_makefile()
+    stub = tmp_path / "bin" / "python"
+    stub.parent.mkdir()
+    stub.write_text(f"#!/bin/sh\necho {tmp_path / 'prefix'}\n")
+    stub.chmod(0o755)
+    env = dict(os.environ, PATH=f"{stub.parent}{os.pathsep}{os.environ['PATH']}")
+    subprocess.run(["bash", str(ROOT / "postBuild")], env=env, check=True, timeout=30)
+    written = tmp_path / "prefix" / path
+    assert written.is_file(), f"postBuild did not write {written}"
+    assert json.loads(written.read_text()) == setting, "postBuild and make lab differ"
+    assert os.access(ROOT / "postBuild", os.X_OK), "postBuild must be executable (repo2docker)"
+
 def test_the_lab_check_reads_the_tex_of_displays_in_blockquotes():
     source = "Text\n\n$$\na = b\n$$\n\n> A quote:\n>\n> $$\n> \\begin{aligned} x &= 1\\\\ y &= 2\n> \\end{aligned}\n> $$"
     assert lab_check.display_tex(source) == ["a = b", "\\begin{aligned} x &= 1\\\\ y &= 2\n\\end{aligned}"]
