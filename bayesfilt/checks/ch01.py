@@ -1,13 +1,18 @@
-"""Checks of chapter 01's exercises (the Bayes recursion on a grid; references from bf.bayes).
-One line per exercise (the notebook variables each reads with ``given``, in brackets)::
+"""Checks of chapter 01's exercises (the Bayes recursion on a grid; references from
+bf.bayes). One line per exercise (the notebook variables each reads with ``given``, in
+brackets)::
 
-    exercise_1(update_by_hand): Bayes' rule, prior x likelihood over the evidence, on five inputs;
+    exercise_1(update_by_hand): Bayes' rule, prior x likelihood over the evidence, on
+        five inputs;
     exercise_2(answer_2): bel(open) after each push and "closed" reading of Thrun's door
         [door_transitions, door_sensor, start_2];
-    exercise_3(answer_3): the log evidences of the 40 position readings under two stds [y_pos, stds_3];
-    exercise_4(answer_4): the seeds whose belief near the true cell at t = 39 is below 0.5, and the
-        function belief_near_truth(seed) the statement asks for [belief_near_truth, seeds_4];
-    exercise_5(answer_5): the mean and variance of the distance moved in 20 steps [kernel, steps_5].
+    exercise_3(answer_3): the log evidences of the 40 position readings under two stds
+        [y_pos, stds_3];
+    exercise_4(answer_4): the seeds whose belief near the true cell at t = 39 is below
+        0.5, and the function belief_near_truth(seed) the statement asks for
+        [belief_near_truth, seeds_4];
+    exercise_5(answer_5): the mean and variance of the distance moved in 20 steps
+        [kernel, steps_5].
 """
 
 from __future__ import annotations

@@ -1,13 +1,15 @@
-"""Checks of chapter 02's exercises (the Kalman filter derived; references by bf.kalman, bf.gaussian, bf.bayes).
-One line per exercise (the notebook variables each reads with ``given``, in brackets)::
+"""Checks of chapter 02's exercises (the Kalman filter derived; references by bf.kalman,
+bf.gaussian, bf.bayes). One line per exercise (the notebook variables each reads with
+``given``, in brackets)::
 
-    exercise_1(means_1, vars_1, P_inf_1, K_inf_1): two steps of the scalar filter by hand, then its steady
-        state for new Q and R [xhat_00_1, P_00_1, Q_1, R_1, ys_1, Q_new_1, R_new_1];
+    exercise_1(means_1, vars_1, P_inf_1, K_inf_1): two steps of the scalar filter by
+        hand, then its steady state for new Q and R [xhat_00_1, P_00_1, Q_1, R_1, ys_1,
+        Q_new_1, R_new_1];
     exercise_2(kalman_gain): the gain K = P C^T S^{-1}, on five inputs;
-    exercise_3(mean_3, sd_3): E(velocity | position) and its standard deviation in section 3's cloud
-        [m_3, Pi_3, position_3];
-    exercise_4(agree_4, meaning_4, grid_means_uniform): the grid filter under uniform noise, and what the KF
-        mean is [a_4];
+    exercise_3(mean_3, sd_3): E(velocity | position) and its standard deviation in
+        section 3's cloud [m_3, Pi_3, position_3];
+    exercise_4(agree_4, meaning_4, grid_means_uniform): the grid filter under uniform
+        noise, and what the KF mean is [a_4];
     exercise_5(correlated_gain): the gain when cov(w_t, v_{t+1}) = D, on four inputs.
 """
 

@@ -1,14 +1,18 @@
-"""Checks of chapter 03's exercises (the damped particle; references by bf.models, bf.kalman, bf.gaussian).
-One line per exercise (the notebook variables each reads with ``given``, in brackets)::
+"""Checks of chapter 03's exercises (the damped particle; references by bf.models,
+bf.kalman, bf.gaussian). One line per exercise (the notebook variables each reads with
+``given``, in brackets)::
 
-    exercise_1(stabilising_1, std_1, radius_1): the steady state of damped_particle(damping=1.0) [model_1];
-    exercise_2(GQGt_2, nees_2, nees_old_2): G Q G^T designed for a half step, and the mean NEES of that design
-        and of section 6's design for one step, on the simulated runs [dt_2, sigma_a_2, A_2, xs_2, ys_2];
+    exercise_1(stabilising_1, std_1, radius_1): the steady state of
+        damped_particle(damping=1.0) [model_1];
+    exercise_2(GQGt_2, nees_2, nees_old_2): G Q G^T designed for a half step, and the
+        mean NEES of that design and of section 6's design for one step, on the
+        simulated runs [dt_2, sigma_a_2, A_2, xs_2, ys_2];
     exercise_3(normalised_squared): the NEES / NIS d_t^T P_t^{-1} d_t, on six inputs;
-    exercise_4(end_of_gap_variance, slope_4): the variance at the end of a gap in the data, and its log-log slope
-        (and section 1's ys, put back if an answer wrote NaN into it) [ys, short_4, long_4];
-    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of r̃_t under three mistuned models
-        [models_5, ys_long].
+    exercise_4(end_of_gap_variance, slope_4): the variance at the end of a gap in the
+        data, and its log-log slope (and section 1's ys, put back if an answer wrote NaN
+        into it) [ys, short_4, long_4];
+    exercise_5(lag1_5, sees_5): the lag-1 autocorrelations of r̃_t under three mistuned
+        models [models_5, ys_long].
 """
 
 from __future__ import annotations

@@ -1,16 +1,21 @@
-"""Checks of chapter 04's exercises (the EKF; references by bf.models, bf.ekf, bf.kalman, bf.gaussian).
-One line per exercise (the notebook variables each reads with ``given``, in brackets)::
+"""Checks of chapter 04's exercises (the EKF; references by bf.models, bf.ekf, bf.kalman,
+bf.gaussian). One line per exercise (the notebook variables each reads with ``given``,
+in brackets)::
 
     exercise_1(range_bearing_jacobian): the range-bearing Jacobian H, by hand;
-    exercise_2(converted_cov, nees_2): the converted covariance J R J^T, and the NEES of a filter started from it;
-    exercise_3(iterated_ekf_update, answer_3): the iterated EKF update, and the position of its limit
-        [y0_3, m0_3, P0_3];
-    exercise_4(turn_jacobian): the Jacobian F of a vehicle turning at the rate omega, by hand;
-    exercise_5(wrapped_innovation): the innovation with its bearing wrapped into (-pi, pi].
+    exercise_2(converted_cov, nees_2): the converted covariance J R J^T, and the NEES of
+        a filter started from it;
+    exercise_3(iterated_ekf_update, answer_3): the iterated EKF update, and the position
+        of its limit [y0_3, m0_3, P0_3];
+    exercise_4(turn_jacobian): the Jacobian F of a vehicle turning at the rate omega, by
+        hand;
+    exercise_5(wrapped_innovation): the innovation with its bearing wrapped into
+        (-pi, pi].
 
-"By hand" is checked three ways: a float64 Jacobian must agree with the closed form to round-off (a
-finite-difference one agrees to about 1e-10; a float32 one is judged to float32 round-off instead), and the code
-must not call bf.ekf.numerical_jacobian, model.H, nor hold a complex constant (a complex-step derivative).
+"By hand" is checked three ways: a float64 Jacobian must agree with the closed form to
+round-off (a finite-difference one agrees to about 1e-10; a float32 one is judged to
+float32 round-off instead), and the code must not call bf.ekf.numerical_jacobian,
+model.H, nor hold a complex constant (a complex-step derivative).
 """
 
 from __future__ import annotations

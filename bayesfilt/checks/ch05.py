@@ -1,13 +1,16 @@
 """Checks of chapter 05's exercises (references by bf.particle, bf.models).
 One line per exercise (the notebook variables each reads with ``given``, in brackets)::
 
-    exercise_1(my_log_normalize): normalised log-weights and their log sum, without under- or overflow
-        [log_w_under_1, log_w_over_1];
-    exercise_2(answer_2): three effective sample sizes [weights_a_2, weights_b_2, log_weights_c_2];
-    exercise_3(log_increment): the log increment log p(y_t | x_(t-1)) of the optimal proposal, on seven inputs [lg];
-    exercise_4(answer_4): the R of the smallest mean ESS, bootstrap at t = 5 and optimal proposal at t = 39, and the
-        function mean_ess(R) the statement asks for, called for each R [R_values, mean_ess, N_4, T_4, records_4,
-        t_boot_4, t_opt_4, seeds_4];
+    exercise_1(my_log_normalize): normalised log-weights and their log sum, without
+        under- or overflow [log_w_under_1, log_w_over_1];
+    exercise_2(answer_2): three effective sample sizes [weights_a_2, weights_b_2,
+        log_weights_c_2];
+    exercise_3(log_increment): the log increment log p(y_t | x_(t-1)) of the optimal
+        proposal, on seven inputs [lg];
+    exercise_4(answer_4): the R of the smallest mean ESS, bootstrap at t = 5 and optimal
+        proposal at t = 39, and the function mean_ess(R) the statement asks for, called
+        for each R [R_values, mean_ess, N_4, T_4, records_4, t_boot_4, t_opt_4,
+        seeds_4];
     exercise_5(answer_5): the models whose optimal proposal is not the transition.
 """
 

@@ -1,13 +1,18 @@
-r"""Checks of chapter 06's exercises (resampling, the particle filter; references by the library).
-One line per exercise (the notebook variables each reads with ``given``, in brackets)::
+r"""Checks of chapter 06's exercises (resampling, the particle filter; references by the
+library). One line per exercise (the notebook variables each reads with ``given``, in
+brackets)::
 
-    exercise_1(my_systematic): systematic resampling's ancestors a_j of the comb u_j = (j + u)/N [W_1, u_1];
-    exercise_2(answer_2): E[O^(2)] and Var(O^(2)) under multinomial, systematic and residual resampling [W_2, M_2];
-    exercise_3(answer_3): resamplings per record at three ESS thresholds, and the threshold of largest RMSE; the
-        function threshold_experiment(thresholds) the statement asks for is called [thresholds,
-        threshold_experiment, N_3, seed_filters_3, batch_lg, lg_bench];
-    exercise_4(answer_4, n_particles): the smallest roughening constant kappa that keeps track, and its NEES
-        verdict [kappa_values, seed_filters_4, max_lost_4, lost_metres_4, t_from_4, sims_v].
+    exercise_1(my_systematic): systematic resampling's ancestors a_j of the comb
+        u_j = (j + u)/N [W_1, u_1];
+    exercise_2(answer_2): E[O^(2)] and Var(O^(2)) under multinomial, systematic and
+        residual resampling [W_2, M_2];
+    exercise_3(answer_3): resamplings per record at three ESS thresholds, and the
+        threshold of largest RMSE; the function threshold_experiment(thresholds) the
+        statement asks for is called [thresholds, threshold_experiment, N_3,
+        seed_filters_3, batch_lg, lg_bench];
+    exercise_4(answer_4, n_particles): the smallest roughening constant kappa that keeps
+        track, and its NEES verdict [kappa_values, seed_filters_4, max_lost_4,
+        lost_metres_4, t_from_4, sims_v].
 """
 
 from __future__ import annotations

@@ -1,9 +1,12 @@
-"""Checks of chapter 07's exercises (smoothing; references by bf.smoothing, bf.kalman, bf.particle).
+"""Checks of chapter 07's exercises (smoothing; references by bf.smoothing, bf.kalman,
+bf.particle).
 
 One line per exercise::
 
-    exercise_1(gain_1, mean_1, var_1): one scalar backward step: J_t, smoothed mean, variance;
-    exercise_2(rts_step): one backward step of the RTS smoother as a function, on four inputs;
+    exercise_1(gain_1, mean_1, var_1): one scalar backward step: J_t, smoothed mean,
+        variance;
+    exercise_2(rts_step): one backward step of the RTS smoother as a function, on four
+        inputs;
     exercise_3(sd_filter_3, sd_smooth_3): the largest sigma of xi_1 in a 20-step gap;
     exercise_4(distinct_genealogy_4, distinct_ffbsi_4): distinct particles at t = 0.
 """

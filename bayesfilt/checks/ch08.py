@@ -1,12 +1,14 @@
-"""Checks of chapter 08's exercises (the unscented transform and the UKF; references by bf.ukf).
-One line per exercise::
+"""Checks of chapter 08's exercises (the unscented transform and the UKF; references by
+bf.ukf). One line per exercise::
 
-    exercise_1(points, mean_weights, cov_weights): the sigma points and weights of a 2-D Gaussian, by hand;
-    exercise_2(ut_mean, ut_var, exact_var, beta): the unscented transform of x^2, and the beta that makes it exact;
-    exercise_3(ut_variance, negative): the UT's variance of x^T x as a function of (alpha, beta, kappa), and the
-        setting that makes it negative;
-    exercise_4(ukf_update): the UKF's measurement update (sigma points, the UT's joint Gaussian, the gain
-        K = Sigma_xy S^{-1}) as a function.
+    exercise_1(points, mean_weights, cov_weights): the sigma points and weights of a 2-D
+        Gaussian, by hand;
+    exercise_2(ut_mean, ut_var, exact_var, beta): the unscented transform of x^2, and
+        the beta that makes it exact;
+    exercise_3(ut_variance, negative): the UT's variance of x^T x as a function of
+        (alpha, beta, kappa), and the setting that makes it negative;
+    exercise_4(ukf_update): the UKF's measurement update (sigma points, the UT's joint
+        Gaussian, the gain K = Sigma_xy S^{-1}) as a function.
 """
 
 from __future__ import annotations
