@@ -6,7 +6,8 @@ a notebook keeps control of the figure layout::
     import matplotlib.pyplot as plt
     import bayesfilt as bf
     fig, ax = plt.subplots()
-    bf.plotting.plot_error(ax, t, xs[:, 0] - res.means[:, 0], np.sqrt(res.covs[:, 0, 0]), unit="m")
+    bf.plotting.plot_error(ax, t, xs[:, 0] - res.means[:, 0], np.sqrt(res.covs[:, 0, 0]),
+                           unit="m")
 
 Plots in the plane (:func:`plot_track`, :func:`covariance_ellipse`) take
 positions of width 2, or full states together with the model, whose
