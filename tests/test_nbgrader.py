@@ -141,6 +141,9 @@ RUN_ALL = r"""
 import json, sys
 import nbformat
 from nbclient import NotebookClient
+sys.path.insert(0, sys.argv[3])
+from run_notebooks import wake_up_in_slices
+wake_up_in_slices()   # a missed wake-up of the kernel client costs 0.5 s, not the timeout
 nb = nbformat.read(sys.argv[1], as_version=4)
 NotebookClient(nb, timeout=600, kernel_name="python3", allow_errors=True,
                resources={"metadata": {"path": sys.argv[2]}}).execute()
@@ -254,7 +257,7 @@ def course(tmp_path_factory):
     student.mkdir()
     (student / CHAPTER.name).write_bytes(release.read_bytes())
     run_all = subprocess.Popen([sys.executable, "-c", RUN_ALL, str(student / CHAPTER.name),
-                                str(student)], cwd=student, env=env, stdout=subprocess.PIPE,
+                                str(student), str(ROOT / "tools")], cwd=student, env=env, stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True)
     solutions = _solutions(source_nb)
     whys = [g for g in solutions if g.endswith("-why")]

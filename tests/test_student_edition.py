@@ -64,6 +64,11 @@ def _load_tool():
 
 
 mse = _load_tool()
+_spec = importlib.util.spec_from_file_location("_run_notebooks",
+                                               ROOT / "tools" / "run_notebooks.py")
+_runner = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_runner)
+_runner.wake_up_in_slices()     # a missed wake-up of nbclient's kernel client costs 0.5 s
 
 
 def _read(path: Path):

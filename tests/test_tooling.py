@@ -8,6 +8,7 @@ changes no byte.
 
 from __future__ import annotations
 
+import asyncio
 import configparser
 import importlib.util
 import json
@@ -16,8 +17,10 @@ import re
 import subprocess
 import sys
 import textwrap
+import time
 import tomllib
 from pathlib import Path
+from queue import Empty
 from types import SimpleNamespace
 
 import nbformat
@@ -315,6 +318,65 @@ def test_rerun_of_unchanged_notebook_is_byte_identical(tmp_path):
 def test_runner_rejects_a_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="path must be an existing notebook"):
         runner.run(tmp_path / "missing.ipynb")
+
+
+# --------------------------------------------------------------------------
+# nbclient's kernel client: a missed wake-up must not cost the whole timeout
+# --------------------------------------------------------------------------
+
+class _DeafChannel:
+    """A channel whose wake-up is lost: a waiting get_msg sleeps its whole timeout, and
+    only a zero-timeout check (pyzmq's final poll) sees a message that arrived meanwhile."""
+
+    def __init__(self, ready_at: float):
+        self.ready_at, self.calls = ready_at, 0
+
+    async def get_msg(self, timeout=None):
+        self.calls += 1
+        if timeout:
+            await asyncio.sleep(timeout)
+        if time.monotonic() >= self.ready_at:
+            return {"msg": "reply"}
+        raise Empty
+
+
+def test_a_missed_wake_up_costs_one_slice_not_the_timeout():
+    channel = _DeafChannel(ready_at=time.monotonic() + 0.3)
+    get_msg = runner.sliced(type(channel).get_msg, slice_seconds=0.2)
+    start = time.monotonic()
+    assert asyncio.run(get_msg(channel, timeout=600)) == {"msg": "reply"}
+    waited = time.monotonic() - start
+    assert waited < 2.0, f"the reply waited {waited:.1f} s (a slice is 0.2 s)"
+    # without the slices the same channel holds the reply for the whole timeout
+    deaf = _DeafChannel(ready_at=time.monotonic() + 0.1)
+    start = time.monotonic()
+    assert asyncio.run(deaf.get_msg(timeout=1.0)) == {"msg": "reply"}
+    assert time.monotonic() - start >= 1.0
+
+
+def test_sliced_waiting_still_times_out_and_waits_forever_when_asked():
+    never = _DeafChannel(ready_at=float("inf"))
+    get_msg = runner.sliced(type(never).get_msg, slice_seconds=0.1)
+    start = time.monotonic()
+    with pytest.raises(Empty):
+        asyncio.run(get_msg(never, timeout=0.35))
+    assert 0.3 <= time.monotonic() - start < 1.5, "the timeout is kept"
+
+    async def cancelled_after(seconds):
+        return await asyncio.wait_for(get_msg(never, timeout=None), seconds)
+
+    with pytest.raises(asyncio.TimeoutError):        # timeout=None: until cancelled
+        asyncio.run(cancelled_after(0.35))
+    assert never.calls >= 4, "waiting without a timeout goes on slice after slice"
+
+
+def test_the_kernel_channels_of_the_runner_wait_in_slices():
+    from jupyter_client.channels import AsyncZMQSocketChannel
+
+    runner.wake_up_in_slices()
+    runner.wake_up_in_slices()                       # idempotent: one layer of slices
+    assert getattr(AsyncZMQSocketChannel.get_msg, "sliced", False)
+    assert not getattr(AsyncZMQSocketChannel.get_msg.wrapped, "sliced", False)
 
 
 # --------------------------------------------------------------------------

@@ -26,6 +26,8 @@ import nbformat
 from nbclient import NotebookClient
 from nbclient.exceptions import CellExecutionError
 
+from run_notebooks import wake_up_in_slices  # a missed wake-up costs 0.5 s, not the timeout
+
 ROOT = Path(__file__).resolve().parents[1]
 SEED = re.compile(r"default_rng\(\s*(\d+)\s*\)")
 
@@ -41,6 +43,7 @@ def run_shifted(path: Path, shift: int, timeout: int = 120) -> str | None:
     for cell in nb.cells:
         if cell.cell_type == "code":
             cell.source = shifted(cell.source, shift)
+    wake_up_in_slices()
     with tempfile.TemporaryDirectory() as tmp:
         client = NotebookClient(nb, timeout=timeout, kernel_name="python3",
                                 resources={"metadata": {"path": tmp}})
