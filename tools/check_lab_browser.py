@@ -67,6 +67,9 @@ from pathlib import Path
 
 import nbformat
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from check_site_browser import find_chromium  # noqa: E402  (one search for Chromium)
+
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = ROOT / "notebooks"
 WIDTH, HEIGHT = 1024, 768
@@ -82,9 +85,9 @@ SETTINGS = {
 # second thread, concurrently with the cells of Run All.
 COMMS_SETTING = "@jupyterlab/apputils-extension/kernels-settings.jupyterlab-settings"
 
-# Waits for the notebook and its kernel, then runs every cell; resolves when the run is done.
-RUN_ALL = r"""
-async () => {
+# The start of both page scripts below: wait for JupyterLab and the notebook's panel (`app`,
+# `panel`, `sleep` are theirs to use); return an error object if either never comes.
+FIND_PANEL = r"""
   const sleep = ms => new Promise(r => setTimeout(r, ms));
   for (let k = 0; k < 600 && !(window.jupyterapp && window.jupyterapp.shell); k++) await sleep(100);
   const app = window.jupyterapp;
@@ -96,6 +99,12 @@ async () => {
   }
   if (!panel) return {error: 'no notebook panel opened'};
   await panel.context.ready;
+"""
+
+# Waits for the notebook and its kernel, then runs every cell; resolves when the run is done.
+RUN_ALL = r"""
+async () => {
+@FIND_PANEL@
   await panel.sessionContext.ready;
   for (let k = 0; k < 600; k++) {
     const kernel = panel.sessionContext.session && panel.sessionContext.session.kernel;
@@ -144,17 +153,7 @@ READ_OUTPUTS = r"""
 # The file browser open (JupyterLab's default layout), then every display equation measured.
 MEASURE_EQUATIONS = r"""
 async () => {
-  const sleep = ms => new Promise(r => setTimeout(r, ms));
-  for (let k = 0; k < 600 && !(window.jupyterapp && window.jupyterapp.shell); k++) await sleep(100);
-  const app = window.jupyterapp;
-  if (!app) return {error: 'JupyterLab did not start in the page'};
-  let panel = null;
-  for (let k = 0; k < 600 && !panel; k++) {
-    const w = app.shell.currentWidget;
-    if (w && w.content && w.sessionContext) panel = w; else await sleep(100);
-  }
-  if (!panel) return {error: 'no notebook panel opened'};
-  await panel.context.ready;
+@FIND_PANEL@
   if (app.shell.leftCollapsed) await app.commands.execute('filebrowser:activate');
   await sleep(500);
   const sidebar = document.querySelector('#jp-left-stack');
@@ -190,14 +189,9 @@ async () => {
 }
 """
 
-
-def find_chromium(given: str | None) -> str:
-    for name in ([given] if given else ["chromium", "chromium-browser", "google-chrome"]):
-        path = shutil.which(name) or (name if name and Path(name).is_file() else None)
-        if path:
-            return path
-    raise SystemExit("error: no Chromium found; install it (apt-get install -y chromium) or give "
-                     "--chromium PATH")
+# both scripts start by finding the panel
+RUN_ALL, MEASURE_EQUATIONS = (script.replace("@FIND_PANEL@", FIND_PANEL.strip("\n"))
+                              for script in (RUN_ALL, MEASURE_EQUATIONS))
 
 
 def _free_port() -> int:
