@@ -217,7 +217,10 @@ def as_inputs(model, us, T: int):
         return None
     if getattr(model, "B", None) is None:
         raise ValueError("us was given but the model has no control matrix B")
-    us = as_matrix("us", us, (None, model.control_dim))
+    us, p = as_array("us", us), model.control_dim
+    if us.ndim != 2 or us.shape[1] != p:
+        raise ValueError(f"us must have shape (T - 1, {p}) = ({T - 1}, {p}), got shape "
+                         f"{us.shape}")
     if us.shape[0] not in (T - 1, T):
         raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {us.shape[0]}")
     return us[: T - 1]

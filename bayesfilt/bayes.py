@@ -527,7 +527,7 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
     ys = as_array("ys", ys, ndim=2, finite=False)
     if ys.shape[1] != m or ys.shape[0] == 0:
         raise ValueError(f"ys must have shape (T, {m}) with T >= 1, got shape {ys.shape}")
-    observation_masks(ys)  # an inf is an error (NaN is a missing component)
+    observed, components = observation_masks(ys)  # an inf is an error; NaN: missing
     cells = g[:, None]
     # p(x_0 = g_j): the prior density at the cell centres, normalised over the grid
     prior = np.exp(_logpdf_prior(model, g))
@@ -548,11 +548,11 @@ def grid_filter(model, ys, grid) -> GridFilterResult:
                 log_p = model.transition_logpdf(x_to, x_from, t=t - 1).reshape(g.shape[0], -1)
                 trans = _row_normalised_exp(log_p, "the transition density")
             prior = posteriors[t - 1] @ trans
-        if np.all(np.isnan(ys[t])):
+        if not observed[t]:
             posteriors[t] = prior
             _check_edges(posteriors[t], g, t)
             continue
-        o = ~np.isnan(ys[t])
+        o = components[t]
         # p(y_t | g_j), or p(y_{t,o} | g_j) of the observed components o of a partly-NaN row
         log_lik = (model.measurement_logpdf(ys[t], cells) if o.all()
                    else model.measurement_logpdf(ys[t], cells, observed=o))

@@ -294,8 +294,6 @@ def extended_kalman_filter(model, ys) -> FilterResult:
         ys = np.asarray(ys)[:, None]  # a scalar measurement per step, as kalman_filter accepts
     ys = as_matrix("ys", ys, (None, m), finite=False)
     T = ys.shape[0]
-    if T == 0:
-        raise ValueError(f"{where}: ys must have at least one row, got shape {ys.shape}")
     try:
         observed, components = observation_masks(ys)
     except ValueError as exc:

@@ -99,8 +99,8 @@ from scipy import linalg as sla
 from scipy.linalg.lapack import dposv as _dposv
 from scipy.linalg.lapack import dtrtrs as _dtrtrs
 
-from ._checks import (as_array, as_covariance, as_matrix, as_noise_gain, as_square, as_vector,
-                      observation_masks, require_finite)
+from ._checks import (as_array, as_covariance, as_inputs, as_matrix, as_noise_gain, as_square,
+                      as_vector, observation_masks, require_finite)
 from .gaussian import LOG_2PI, _logpdf_rows
 from .models import LinearGaussian
 
@@ -503,23 +503,18 @@ def _check_model(model) -> None:
 
 def _check_inputs(model: LinearGaussian, us, T: int, batch: int | None):
     """The validated inputs u_0..u_{T-2}, (T-1, p) or (M, T-1, p), or None."""
-    if us is None:
-        return None
+    if us is None or batch is None or np.ndim(us) == 2:   # one input record for all runs
+        return as_inputs(model, us, T)
     if model.B is None:
         raise ValueError("us was given but the model has no control matrix B")
     p = model.control_dim
     a = as_array("us", us)
-    if batch is not None and a.ndim == 3:
-        if a.shape[0] != batch or a.shape[2] != p:
-            raise ValueError(f"us must have shape (T - 1, {p}) shared by all sequences or "
-                             f"({batch}, T - 1, {p}), got shape {a.shape}")
-    elif a.ndim != 2 or a.shape[1] != p:
-        want = f"(T - 1, {p})" + ("" if batch is None else f" or ({batch}, T - 1, {p})")
-        raise ValueError(f"us must have shape {want}, got shape {a.shape}")
-    rows = a.shape[-2]
-    if rows not in (T - 1, T):
-        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {rows}")
-    return a[..., : T - 1, :]
+    if a.ndim != 3 or a.shape[0] != batch or a.shape[2] != p:
+        raise ValueError(f"us must have shape (T - 1, {p}) shared by all sequences or "
+                         f"({batch}, T - 1, {p}), got shape {a.shape}")
+    if a.shape[1] not in (T - 1, T):
+        raise ValueError(f"us must have T - 1 = {T - 1} (or T = {T}) rows, got {a.shape[1]}")
+    return a[:, : T - 1]
 
 
 def _as_ys(ys, m: int, batched: bool) -> np.ndarray:

@@ -152,8 +152,8 @@ def _below(w: np.ndarray, M: int, u) -> np.ndarray:
     the counting argument below. The result is non-decreasing and ends at M.
     """
     # M Omega_i = M (w_0 + ... + w_i) / sum(w): the cumulative weights on the scale
-    # of the strata. Dividing by the last partial sum makes C_{N-1} = 1 exactly
-    # (x / x == 1 in floating point) and keeps C non-decreasing and <= 1, so
+    # of the strata. Dividing by the last partial sum makes Omega_{N-1} = 1 exactly
+    # (x / x == 1 in floating point) and keeps Omega non-decreasing and <= 1, so
     # M Omega_i <= M with equality at the end: round-off cannot lose a point.
     MC = np.cumsum(w)
     MC /= MC[-1]
@@ -172,7 +172,7 @@ def _below(w: np.ndarray, M: int, u) -> np.ndarray:
     # M Omega_i - k_i
     frac = np.subtract(MC, k, out=MC)
     # v_{k_i}. k_i = M only where M Omega_i = M, and there the test is false
-    # whatever u says, so clipping the look-up to u_{M-1} changes nothing.
+    # whatever v says, so clipping the look-up to v_{M-1} changes nothing.
     u_k = u if np.ndim(u) == 0 else np.take(u, k, mode="clip")
     # below_i = k_i + [v_{k_i} < M Omega_i - k_i]
     below = k
@@ -210,7 +210,7 @@ def from_uniforms(weights, uniforms) -> np.ndarray:
     filterpy's ``stratified_resample`` (``u = np.random.random(N)``) and
     ``systematic_resample`` (``u = np.full(N, np.random.random())``), without
     their Python loop and without their IndexError when the cumulative sum of
-    the weights falls short of 1 by round-off: here :math:`C_{N-1} = 1`
+    the weights falls short of 1 by round-off: here :math:`\Omega_{N-1} = 1`
     exactly, so every point finds an index.
 
     Parameters

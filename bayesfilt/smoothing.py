@@ -672,7 +672,7 @@ def ffbsi(model, history: ParticleHistory, n_paths: int, rng, us=None) -> Backwa
     X, W, _ = _check_history(history, getattr(model, "state_dim", None))
     L = as_int("n_paths", n_paths, minimum=1)
     rng = as_rng("rng", rng)
-    T, N, n = X.shape
+    T, N = X.shape[:2]
     us = as_inputs(model, us, T)
     idx = np.empty((L, T), dtype=np.intp)
     idx[:, T - 1] = _draw_rows(np.broadcast_to(W[T - 1], (L, N)), rng)

@@ -196,9 +196,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import cho_solve
 
-from ._checks import (as_covariance, as_matrix, as_noise_gain, as_vector, check_callable,
-                      check_output, require_finite)
-from .kalman import FilterResult, Prediction, Update, _correct, _embed
+from ._checks import (as_covariance, as_inputs, as_matrix, as_noise_gain, as_vector,
+                      check_callable, check_output, observation_masks, require_finite)
+from .kalman import S_OVERFLOW, FilterResult, Prediction, Update, _correct, _embed
 
 __all__ = ["SigmaPoints", "Transformed", "sigma_points", "unscented_transform", "predict",
            "update", "unscented_kalman_filter"]
@@ -524,8 +524,9 @@ def _update(x, P, y, h, R, residual, w: _Weights, o=None) -> Update:
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
         try:
             x_new, P_new, K, _, S, loglik = _correct(x, P, r_o, C, R_eff, np.eye(n))
-        except ValueError:
-            raise ValueError(f"ukf.update: {S_NOT_PD}") from None
+        except ValueError as exc:     # S singular, or S overflowed (bf.kalman's message)
+            raise ValueError(f"ukf.update: {exc if str(exc) == S_OVERFLOW else S_NOT_PD}") \
+                from None
     require_finite("ukf.update", "updated covariance", P_new)
     if o is not None:
         K, r, S = _embed(o, K, r_o, S)
@@ -658,12 +659,11 @@ def _check_ys(ys, m: int, where: str):
     if m == 1 and np.ndim(ys) == 1:
         ys = np.asarray(ys)[:, None]  # a scalar measurement per step, as kalman_filter accepts
     ys = as_matrix("ys", ys, (None, m), finite=False)
-    if np.isinf(ys).any():
-        row, col = (int(i) for i in np.argwhere(np.isinf(ys))[0])
-        raise ValueError(f"{where}: ys must be finite or NaN (missing), got inf at index "
-                         f"({row}, {col})")
-    components = ~np.isnan(ys)
-    return ys, components.any(axis=1), components
+    try:
+        observed, components = observation_masks(ys)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    return ys, observed, components
 
 
 def _linear_functions(model, us):
@@ -717,7 +717,7 @@ def unscented_kalman_filter(model, ys, alpha=1.0, beta=2.0, kappa=0.0, us=None) 
         ``means``, ``covs``, ``pred_means``, ``pred_covs``, ``innovations``,
         ``innovation_covs``, ``gains``, ``step_logliks``, ``loglik`` (the UKF's
         approximation of :math:`\log p(y_0, \dots, y_{T-1})`, exact for a
-        linear model) and ``observed``.
+        linear model), ``observed`` and ``observed_components``.
 
     Raises
     ------
@@ -729,7 +729,6 @@ def unscented_kalman_filter(model, ys, alpha=1.0, beta=2.0, kappa=0.0, us=None) 
         step t and what failed: a covariance that is not positive definite,
         a function returning NaN, ...).
     """
-    from .kalman import _check_inputs
     from .models import LinearGaussian, NonlinearGaussian  # local: light module loading
 
     where = "unscented_kalman_filter"
@@ -740,10 +739,8 @@ def unscented_kalman_filter(model, ys, alpha=1.0, beta=2.0, kappa=0.0, us=None) 
     w = _weights(n, alpha, beta, kappa)
     ys, observed, components = _check_ys(ys, m, where)
     T = ys.shape[0]
-    if T == 0:
-        raise ValueError(f"{where}: ys must have at least one row, got shape {ys.shape}")
     if isinstance(model, LinearGaussian):
-        us = _check_inputs(model, us, T, None)
+        us = as_inputs(model, us, T)
         transition, h = _linear_functions(model, us)
         residual = None
     else:

@@ -461,7 +461,6 @@ def test_the_course_config_sets_what_the_guide_says():
     config = PyFileConfigLoader(CONFIG.name, path=str(ROOT)).load_config()
     assert config.CourseDirectory.course_id == "bayesfilt"
     assert config.ClearSolutions.code_stub == {"python": CODE_STUB}
-    assert "raise" not in config.ClearSolutions.code_stub["python"]
     assert config.ClearSolutions.text_stub == TEXT_STUB
     assert config.Autograde.create_student is False
     assert config.LateSubmissionPlugin.penalty_method == "none"

@@ -540,6 +540,8 @@ def test_sis_step_accepts_normalised_log_weights_up_to_rounding():
         bf.particle.sis_step(model, rng, np.zeros((len(lw), 2)), lw, [0.1], t=1)
     # within the stated tolerance, 1e-8, but not beyond it
     bf.particle.sis_step(model, rng, np.zeros((2, 2)), np.log([0.5, 0.5]) + 0.9e-8, [0.1], t=1)
+    with pytest.raises(ValueError, match="normalised"):
+        bf.particle.sis_step(model, rng, np.zeros((2, 2)), np.log([0.5, 0.5]) + 2e-8, [0.1], t=1)
     assert bf.particle.LOG_WEIGHTS_TOL == 1e-8
 
 
