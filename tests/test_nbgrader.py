@@ -29,10 +29,10 @@ only the roster.
 
 Chapter 02 is used because it is the cheapest chapter to execute; the checks'
 time limit is set to 1 s (``BAYESFILT_CHECK_TIME_LIMIT``) so that the endless
-loop in a function costs one second, and nbgrader's cell time limit to 10 s
+loop in a function costs one second, and nbgrader's cell time limit to 6 s
 (``--Execute.timeout``, added to the autograde command) so that the endless
-answer cell costs ten, not thirty. Until the chapter's writer adds its
-manually graded "why?" cells, the test adds one to its copy of the chapter
+answer cell costs six, not thirty (every other cell of chapter 02 takes under
+2 s). Until the chapter's writer adds its manually graded "why?" cells, the test adds one to its copy of the chapter
 (exercise 4's "why that one?", in the pattern of CONTRIBUTING.md).
 """
 
@@ -58,7 +58,7 @@ ASSIGNMENT = "ch02"
 INSTRUCTORS = ROOT / "INSTRUCTORS.md"
 BIN = Path(sys.executable).parent
 CODE_STUB, TEXT_STUB = "# YOUR CODE HERE", "YOUR ANSWER HERE"
-CELL_TIMEOUT = 10        # nbgrader's per-cell limit in this test (the course's config says 30 s)
+CELL_TIMEOUT = 6         # nbgrader's per-cell limit in this test (the course's config says 30 s)
 
 # What the third student writes in place of nbgrader's stubs, per exercise, one entry per stub
 # of the answer cell (exercise 4 has two: the function's body, then the two values); None: the
