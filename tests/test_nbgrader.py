@@ -32,8 +32,8 @@ time limit is set to 1 s (``BAYESFILT_CHECK_TIME_LIMIT``) so that the endless
 loop in a function costs one second, and nbgrader's cell time limit to 6 s
 (``--Execute.timeout``, added to the autograde command) so that the endless
 answer cell costs six, not thirty (every other cell of chapter 02 takes under
-2 s). Until the chapter's writer adds its manually graded "why?" cells, the test adds one to its copy of the chapter
-(exercise 4's "why that one?", in the pattern of CONTRIBUTING.md).
+2 s). Until the chapter's writer adds its manually graded "why?" cells, the
+test adds one to its copy of the chapter (exercise 4's "why that one?", in the pattern of CONTRIBUTING.md).
 """
 
 from __future__ import annotations
